@@ -1,0 +1,75 @@
+"""The ``feedopt`` command: a thin dispatcher over :mod:`feedopt.commands`.
+
+Every module in ``feedopt.commands`` exposes ``add_parser(subparsers)``, which registers one
+subcommand whose ``func(args) -> int`` does the work. This module owns the exit codes:
+0 ok, 2 bad input (:class:`feedopt.errors.InputError`, argparse errors), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+import traceback
+
+from feedopt import __version__, commands
+from feedopt.errors import InputError
+
+# Order in --help; modules not listed here are appended alphabetically.
+_ORDER = ["run", "validate", "compare", "path", "forces", "calibrate", "robot"]
+
+
+def _command_modules() -> list[str]:
+    names = [m.name for m in pkgutil.iter_modules(commands.__path__) if not m.name.startswith("_")]
+    return sorted(names, key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the argument parser with every subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog="feedopt",
+        description=(
+            "Plan the fastest C2 feed-rate schedule for robotic milling that keeps the "
+            "robot's predicted static deflection under a limit, verify it, and export it "
+            "for KUKA RSI."
+        ),
+    )
+    parser.add_argument("--version", action="version", version=f"feedopt {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the Python traceback of internal errors"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _command_modules():
+        importlib.import_module(f"feedopt.commands.{name}").add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``feedopt`` console script; returns the process exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        print(f"feedopt {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("feedopt: interrupted", file=sys.stderr)
+        return 1
+    except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into exit code 1
+        if args.debug:
+            traceback.print_exc()
+        print(
+            f"feedopt {args.command}: internal error: {type(exc).__name__}: {exc}\n"
+            "This is a bug in feedopt; rerun with --debug for the traceback.",
+            file=sys.stderr,
+        )
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""export stage of feedopt (see shared/design.md)."""

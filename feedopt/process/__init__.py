@@ -1,0 +1,1 @@
+"""process stage of feedopt (see shared/design.md)."""

@@ -1,0 +1,1 @@
+"""robot stage of feedopt (see shared/design.md)."""

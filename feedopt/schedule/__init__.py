@@ -1,0 +1,1 @@
+"""schedule stage of feedopt (see shared/design.md)."""

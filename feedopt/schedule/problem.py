@@ -1,0 +1,92 @@
+"""What every timing law is given: the sampled path, its feed bound and the robot's limits.
+
+The runner builds one :class:`ScheduleProblem` per scenario (from the geometry, process and
+robot stages and :mod:`feedopt.schedule.bounds`) and hands the same object to every law, so
+laws never reach into other stages.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ScheduleProblem:
+    """A time-parameterisation problem along a fixed path.
+
+    Attributes
+    ----------
+    s : (n,) array
+        Arc length of the path samples [m], strictly increasing, ``s[0] == 0``.
+    v_max : (n,) array
+        Upper bound on the path velocity sdot at each sample [m/s] (deflection limit, user
+        max feed, spindle power/torque, joint velocity: the tightest of them). Positive.
+    q : (n, dof) array
+        Joint path at the samples [rad] (continuous, from IK).
+    dq_ds, d2q_ds2 : (n, dof) arrays
+        First and second derivatives of the joint path w.r.t. arc length [rad/m, rad/m^2].
+    joint_velocity_max, joint_acceleration_max : (dof,) arrays
+        Symmetric joint limits [rad/s, rad/s^2].
+    accel_max : float
+        Tangential acceleration limit |sddot| [m/s^2] (``inf`` if none).
+    jerk_max : float
+        Tangential jerk limit |sdddot| [m/s^3] (``inf`` if none). Laws that produce C2
+        trajectories (convex, jerk) must respect it; ``thesis`` reports what it reaches.
+    nominal_feed : float
+        The user's nominal feed [m/s] (the ``constant`` law runs at it).
+    v_start, v_end : float
+        Boundary feeds [m/s]; 0 means start and end at rest.
+    segment_start : (k,) array
+        Arc length at which each geometric segment starts [m] (``segment_start[0] == 0``).
+    segment_kind : tuple of str, length k
+        ``"line"`` or the blend kind (``"circle"``, ``"bezier4"``, ``"bezier5"``,
+        ``"varying_radius"``) of each segment.
+    key_point_spacing : float
+        Spacing l of the chapter-4 key points along lines [m] (thesis 4.2); 0 = not used.
+    """
+
+    s: np.ndarray
+    v_max: np.ndarray
+    q: np.ndarray
+    dq_ds: np.ndarray
+    d2q_ds2: np.ndarray
+    joint_velocity_max: np.ndarray
+    joint_acceleration_max: np.ndarray
+    accel_max: float
+    jerk_max: float
+    nominal_feed: float
+    v_start: float = 0.0
+    v_end: float = 0.0
+    segment_start: np.ndarray | None = None
+    segment_kind: tuple[str, ...] = ()
+    key_point_spacing: float = 0.0
+
+    @property
+    def length(self) -> float:
+        """Path length [m]."""
+        return float(self.s[-1])
+
+    @property
+    def n(self) -> int:
+        """Number of path samples."""
+        return int(self.s.size)
+
+    def lower_bound_time(self) -> float:
+        """T* = integral of ds / v_max(s): no law obeying v_max can be faster.
+
+        The bound is only known at the samples (that is also where laws are verified), so
+        the integral is the trapezoidal rule on 1/v_max over the samples.
+        """
+        return float(np.trapezoid(1.0 / self.v_max, self.s))
+
+    def segments(self) -> list[tuple[float, float, str]]:
+        """Segments as ``(s_start, s_end, kind)``; one ``line`` if none were given."""
+        if self.segment_start is None or len(self.segment_kind) == 0:
+            return [(0.0, self.length, "line")]
+        ends = np.append(self.segment_start[1:], self.length)
+        return [
+            (float(a), float(b), k)
+            for a, b, k in zip(self.segment_start, ends, self.segment_kind, strict=True)
+        ]
