@@ -1,0 +1,293 @@
+"""Scenario files: one YAML document says everything about a planning job.
+
+Validated with pydantic; user units (mm, mm/s, deg, rpm) are in the field names and are
+converted to SI only by the runner. Relative file paths are resolved against the scenario
+file's directory. :func:`load_scenario` turns every validation problem into one
+:class:`~feedopt.errors.InputError` that names the field path, what was expected and, for
+an unknown field, the closest valid name. ``feedopt validate --schema`` prints the
+reference of every field (generated from this module).
+"""
+
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+from typing import Annotated, Literal, get_args, get_origin
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from feedopt.errors import InputError
+
+LAWS = ("constant", "thesis", "topp", "convex", "jerk")
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+Vector3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RobotSection(_Strict):
+    """The robot: a directory with robot.yaml + URDF, stiffness set and start pose."""
+
+    directory: str = Field(description="robot directory (robot.yaml + URDF), relative paths "
+                           "resolve against the scenario file")
+    stiffness: Literal["dpp", "cp"] = Field("dpp", description="joint stiffness set of thesis "
+                                            "Table 3.4 (DPP is what the thesis uses, Eq. 3.20)")
+    start_configuration_deg: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] = (
+        Field(description="joint values that seed IK at the first sample (deg)")
+    )
+    fix_tool_rotation: bool = Field(False, description="fix the rotation about the tool axis "
+                                    "(6-DoF task); default: free, the milling 5-DoF task")
+
+
+class WorkpieceSection(_Strict):
+    """Placement of the workpiece frame W in the robot base frame B."""
+
+    position_mm: Vector3 = Field(description="origin of W in B (mm)")
+    rpy_deg: Vector3 = Field([0.0, 0.0, 0.0], description="roll, pitch, yaw of W in B (deg, "
+                             "extrinsic X-Y-Z)")
+    tool_axis: Vector3 = Field([0.0, 0.0, 1.0], description="tool axis in W, pointing from the "
+                               "tool tip into the spindle (default: normal of the top face)")
+
+
+class PathSection(_Strict):
+    """Tool path in the workpiece frame: a generator or a waypoint file, and its blends."""
+
+    generator: Literal["triangle_wave", "square_wave", "line", "csv"] = Field(
+        description="triangle_wave | square_wave (length/height/waves), line (start/end), "
+        "csv (file with columns x_mm,y_mm,z_mm)")
+    length_mm: PositiveFloat = Field(304.8, description="wave length along x (mm)")
+    height_mm: PositiveFloat = Field(76.2, description="wave height along y (mm)")
+    waves: Annotated[int, Field(ge=1)] = Field(3, description="number of waves")
+    start_mm: Vector3 = Field([0.0, 0.0, 0.0], description="line start (mm)")
+    end_mm: Vector3 = Field([203.2, 9.525, 0.0], description="line end (mm)")
+    file: str | None = Field(None, description="waypoint CSV for generator csv")
+    z_mm: FiniteFloat = Field(0.0, description="height of generated waves in W (mm)")
+    blend: Literal["varying_radius", "circle", "bezier4", "bezier5", "none"] = Field(
+        "varying_radius", description="corner blend kind (thesis 3.3)")
+    blend_size_mm: PositiveFloat = Field(12.7, description="blend radius (circle, "
+                                         "varying_radius) or tolerance (bezier4/5) (mm)")
+    spacing_mm: PositiveFloat = Field(0.1, description="sample spacing along the path (mm)")
+
+    @model_validator(mode="after")
+    def _needs_file(self) -> PathSection:
+        if self.generator == "csv" and not self.file:
+            raise ValueError("generator 'csv' needs 'file' (a waypoint CSV: x_mm,y_mm,z_mm)")
+        return self
+
+
+class DepthProfile(_Strict):
+    """Radial depth as a table over arc length (linear interpolation)."""
+
+    s_mm: Annotated[list[FiniteFloat], Field(min_length=2)]
+    depth_mm: Annotated[list[FiniteFloat], Field(min_length=2)]
+
+    @model_validator(mode="after")
+    def _same_length(self) -> DepthProfile:
+        if len(self.s_mm) != len(self.depth_mm):
+            raise ValueError("s_mm and depth_mm must have the same number of values")
+        if any(b <= a for a, b in zip(self.s_mm, self.s_mm[1:], strict=False)):
+            raise ValueError("s_mm must be strictly increasing")
+        return self
+
+
+class CutSection(_Strict):
+    """Cutting conditions."""
+
+    type: Literal["slot", "peripheral"] = Field(description="slot (full immersion) or "
+                                                "peripheral (radial depth)")
+    axial_depth_mm: PositiveFloat = Field(description="axial depth of cut a (mm)")
+    radial_depth_mm: PositiveFloat | None = Field(None, description="constant radial depth "
+                                                  "a_e for peripheral cuts (mm)")
+    radial_depth_profile: DepthProfile | None = Field(None, description="radial depth vs arc "
+                                                      "length for peripheral cuts")
+    milling: Literal["down", "up"] = Field("down", description="down (climb) or up milling")
+    spindle_rpm: PositiveFloat = Field(description="spindle speed (rev/min)")
+    extrapolate_coefficients: bool = Field(False, description="allow cutting coefficients "
+                                           "outside the calibrated speed range")
+
+    @model_validator(mode="after")
+    def _radial(self) -> CutSection:
+        if self.type == "peripheral" and (self.radial_depth_mm is None) == (
+            self.radial_depth_profile is None
+        ):
+            raise ValueError("a peripheral cut needs exactly one of radial_depth_mm and "
+                             "radial_depth_profile")
+        if self.type == "slot" and (self.radial_depth_mm or self.radial_depth_profile):
+            raise ValueError("a slot is full immersion: remove radial_depth_mm/_profile")
+        return self
+
+
+class FeedSection(_Strict):
+    nominal_mm_s: PositiveFloat = Field(description="nominal feed; the constant law runs at it")
+    max_mm_s: PositiveFloat | None = Field(None, description="largest feed any law may use "
+                                           "(default: 3 x nominal)")
+    start_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the start")
+    end_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the end")
+
+
+class DeflectionSection(_Strict):
+    limit_mm: PositiveFloat = Field(description="deflection limit (mm)")
+    mode: Literal["norm", "normal", "direction"] = Field("norm", description="limit the norm "
+        "of the TCP deflection (thesis), its component along the in-plane surface normal, or "
+        "along a given direction")
+    direction: Vector3 | None = Field(None, description="base-frame direction for mode "
+                                      "'direction'")
+
+    @model_validator(mode="after")
+    def _direction(self) -> DeflectionSection:
+        if self.mode == "direction" and self.direction is None:
+            raise ValueError("mode 'direction' needs 'direction' [x, y, z]")
+        return self
+
+
+class LimitsSection(_Strict):
+    tangential_acceleration_mm_s2: PositiveFloat = Field(500.0, description="|sddot| limit")
+    tangential_jerk_mm_s3: PositiveFloat = Field(5000.0, description="|sdddot| limit")
+    joint_velocity_scale: Annotated[float, Field(gt=0, le=1)] = Field(
+        1.0, description="fraction of the robot's joint velocity limits to use")
+    joint_acceleration_scale: Annotated[float, Field(gt=0, le=1)] = Field(
+        1.0, description="fraction of the robot's joint acceleration limits to use")
+    spindle_torque_nm: PositiveFloat = Field(400.0, description="spindle torque limit (thesis: "
+                                             "Suhner Max 40B)")
+    spindle_power_w: PositiveFloat = Field(7500.0, description="spindle power limit")
+
+
+class ScheduleSection(_Strict):
+    laws: list[Literal["constant", "thesis", "topp", "convex", "jerk"]] = Field(
+        list(LAWS), min_length=1, description="timing laws to run")
+    key_point_spacing_mm: Annotated[float, Field(ge=0)] = Field(
+        0.0, description="chapter-4 key points every l along lines (0: chapter-3 law)")
+    angle_step_deg: Annotated[float, Field(gt=0, le=10)] = Field(
+        1.0, description="cutter angle step of the force model")
+    axial_slices: Annotated[int, Field(ge=1, le=500)] = Field(20, description="axial slices")
+
+
+class ExportSection(_Strict):
+    rsi_cycle_ms: PositiveFloat = Field(4.0, description="RSI cycle (ms)")
+
+
+class Scenario(_Strict):
+    """A complete planning job (see scenarios/*.yaml)."""
+
+    name: str = Field(description="scenario name (output folder out/<name>/)")
+    description: str = Field("", description="free text")
+    robot: RobotSection
+    workpiece: WorkpieceSection
+    path: PathSection
+    tool: str = Field(description="tool YAML file (diameter, teeth, helix, flute length)")
+    material: str = Field(description="cutting-coefficient YAML (feedopt calibrate --out)")
+    cut: CutSection
+    feed: FeedSection
+    deflection: DeflectionSection
+    limits: LimitsSection = LimitsSection()
+    schedule: ScheduleSection = ScheduleSection()
+    export: ExportSection = ExportSection()
+
+
+def _field_names(model: type[BaseModel], loc: tuple) -> list[str]:
+    """Valid field names at location ``loc`` (for suggestions)."""
+    current: type[BaseModel] | None = model
+    for part in loc:
+        if current is None or not isinstance(part, str) or part not in current.model_fields:
+            break
+        ann = current.model_fields[part].annotation
+        current = next((a for a in getattr(ann, "__args__", (ann,))
+                        if isinstance(a, type) and issubclass(a, BaseModel)), None)
+    return list(current.model_fields) if current is not None else []
+
+
+def format_validation_error(exc: ValidationError, source: str) -> str:
+    """One readable message for all pydantic errors: field path, problem, suggestion."""
+    lines = [f"{source}: invalid scenario ({exc.error_count()} problem(s)):"]
+    for err in exc.errors():
+        loc = tuple(err["loc"])
+        path = ".".join(str(p) for p in loc) or "(top level)"
+        if err["type"] == "extra_forbidden":
+            names = _field_names(Scenario, loc[:-1])
+            close = difflib.get_close_matches(str(loc[-1]), names, n=1)
+            hint = f"; did you mean '{close[0]}'?" if close else f"; valid: {', '.join(names)}"
+            lines.append(f"  - {path}: unknown field{hint}")
+        elif err["type"] == "missing":
+            lines.append(f"  - {path}: required field is missing")
+        else:
+            got = err.get("input")
+            got_s = "" if isinstance(got, dict) else f" (got {got!r})"
+            lines.append(f"  - {path}: {err['msg']}{got_s}")
+    return "\n".join(lines)
+
+
+def load_scenario(path: str | Path) -> tuple[Scenario, Path]:
+    """Read and validate a scenario file; returns it and its directory.
+
+    Raises
+    ------
+    InputError
+        Missing file, malformed YAML (with line), or any schema violation.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"scenario file not found: {path}")
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        raise InputError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+    if not isinstance(raw, dict):
+        raise InputError(f"{path}: a scenario must be a YAML mapping of sections, got "
+                         f"{type(raw).__name__}")
+    try:
+        scenario = Scenario.model_validate(raw)
+    except ValidationError as exc:
+        raise InputError(format_validation_error(exc, str(path))) from None
+    return scenario, path.resolve().parent
+
+
+def resolve(base: Path, relative: str, what: str) -> Path:
+    """Resolve a file named in a scenario against its directory; InputError if missing."""
+    p = Path(relative)
+    p = p if p.is_absolute() else base / p
+    if not p.exists():
+        raise InputError(f"{what} not found: {relative} (looked for {p})")
+    return p
+
+
+def _type_name(ann: object) -> str:
+    """Readable type of a field: allowed values of a Literal, list of numbers, ..."""
+    origin, args = get_origin(ann), get_args(ann)
+    if origin is Literal:
+        return " | ".join(repr(a) for a in args)
+    if origin is list:
+        return "list of numbers" if args and get_args(args[0])[:1] == (float,) else "list"
+    if origin is Annotated:
+        return _type_name(args[0])
+    if args:  # a union such as float | None
+        return " | ".join("null" if a is type(None) else _type_name(a) for a in args)
+    return getattr(ann, "__name__", str(ann))
+
+
+def schema_reference() -> str:
+    """A markdown reference of every scenario field, generated from the schema."""
+    out = ["# Scenario reference", "",
+           "Generated from `feedopt/scenario.py` (`feedopt validate --schema`).", ""]
+
+    def walk(model: type[BaseModel], prefix: str) -> None:
+        for name, f in model.model_fields.items():
+            ann = f.annotation
+            sub = next((a for a in getattr(ann, "__args__", (ann,))
+                        if isinstance(a, type) and issubclass(a, BaseModel)), None)
+            default = "required" if f.is_required() else f"default `{f.default!r}`"
+            if sub is not None and sub is not DepthProfile:
+                note = f": {f.description}" if f.description else ""
+                out.append(f"- **{prefix}{name}** (section){note}")
+                walk(sub, f"{prefix}{name}.")
+            else:
+                out.append(f"- **{prefix}{name}** — {f.description or ''} ({default}; "
+                           f"{_type_name(ann)})")
+
+    walk(Scenario, "")
+    return "\n".join(out) + "\n"
