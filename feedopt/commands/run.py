@@ -1,0 +1,63 @@
+"""``feedopt run SCENARIO.yaml``: the whole pipeline, verified, exported and reported."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from feedopt.errors import InputError
+from feedopt.scenario import LAWS
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "run",
+        help="plan, verify, export and report a scenario",
+        description="Run every stage on SCENARIO.yaml and write, per timing law, the RSI CSV "
+        "(only for verified laws unless --export-unverified), KRL programs for the thesis "
+        "and constant laws, summary.json and report.md/report.html.",
+    )
+    p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
+    p.add_argument("--out", help="output folder (default: out/<scenario name>/)")
+    p.add_argument("--laws", help=f"comma-separated subset of {','.join(LAWS)} "
+                   "(default: the scenario's list)")
+    p.add_argument("--export-unverified", action="store_true",
+                   help="also export laws that failed verification (marked in the files)")
+    p.add_argument("--spacing-mm", type=float, help="override the path sample spacing (mm)")
+    p.add_argument("--no-report", action="store_true", help="skip report.md/report.html")
+    p.set_defaults(func=run)
+
+
+def parse_laws(text: str | None) -> list[str] | None:
+    """Parse ``--laws``; InputError for an unknown name."""
+    if not text:
+        return None
+    laws = [x.strip() for x in text.split(",") if x.strip()]
+    unknown = [x for x in laws if x not in LAWS]
+    if unknown or not laws:
+        raise InputError(f"--laws: unknown law(s) {', '.join(unknown) or '(none given)'}; "
+                         f"choose from {', '.join(LAWS)}")
+    return list(dict.fromkeys(laws))
+
+
+def run(args: argparse.Namespace) -> int:
+    from feedopt.runner import run_scenario
+
+    if args.spacing_mm is not None and not args.spacing_mm > 0:
+        raise InputError(f"--spacing-mm must be positive, got {args.spacing_mm}")
+    result = run_scenario(
+        args.scenario,
+        out_dir=args.out,
+        laws=parse_laws(args.laws),
+        export_unverified=args.export_unverified,
+        spacing_mm=args.spacing_mm,
+        report=not args.no_report,
+    )
+    print(result.table)
+    print(f"\nwrote {result.out_dir}")
+    failed = [law for law, r in result.laws.items() if not r.verification.verified]
+    if failed:
+        print(f"feedopt run: {len(failed)} law(s) FAILED their own verification and were not "
+              f"exported: {', '.join(failed)} (see summary.json)", file=sys.stderr)
+        return 1
+    return 0
