@@ -1,0 +1,291 @@
+"""RSI CSV: the trajectory a closed-loop KUKA RSI program replays, one row per controller cycle.
+
+Columns (``shared/design.md``, in this order)::
+
+    t_s, x_mm, y_mm, z_mm, a_deg, b_deg, c_deg, q1_deg..q6_deg,
+    s_mm, feed_mm_s, accel_mm_s2, jerk_mm_s3, deflection_mm
+
+The pose is the TCP in the robot base frame; A, B, C are KUKA intrinsic Z-Y'-X'' angles
+(:mod:`feedopt.robot.kuka`). The file starts with ``#`` comment lines (units, frames, cycle),
+then the header row, then the data rows. Floats are written with Python's shortest
+round-trip representation (``repr``), so :func:`write_rsi_csv` then :func:`read_rsi_csv`
+gives back the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.robot.kuka import abc_from_rotation
+
+COLUMNS: tuple[str, ...] = (
+    "t_s",
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "a_deg",
+    "b_deg",
+    "c_deg",
+    *(f"q{i}_deg" for i in range(1, 7)),
+    "s_mm",
+    "feed_mm_s",
+    "accel_mm_s2",
+    "jerk_mm_s3",
+    "deflection_mm",
+)
+
+_HEADER_DOC = (
+    "feedopt RSI trajectory: one row per RSI cycle.",
+    "t_s: time [s] from the start of the cut.",
+    "x_mm, y_mm, z_mm: TCP position in the robot base frame [mm].",
+    "a_deg, b_deg, c_deg: TCP orientation, KUKA A,B,C = intrinsic Z-Y'-X'' Euler angles [deg]"
+    " (R = Rz(A) Ry(B) Rx(C)); A and C are unwrapped along the trajectory (continuous).",
+    "q1_deg..q6_deg: joint angles [deg] whose forward kinematics gives the pose above.",
+    "s_mm: arc length along the tool path [mm]; feed_mm_s = ds/dt [mm/s];"
+    " accel_mm_s2 = d2s/dt2; jerk_mm_s3 = d3s/dt3.",
+    "deflection_mm: predicted static TCP deflection at the commanded feed [mm].",
+    "Floats are shortest round-trip decimal representations; lines starting with # are comments.",
+)
+
+
+@dataclass(frozen=True)
+class RsiTable:
+    """The columns of an RSI CSV in file units (mm, deg, s); ``q_deg`` is (n, 6)."""
+
+    t_s: np.ndarray
+    x_mm: np.ndarray
+    y_mm: np.ndarray
+    z_mm: np.ndarray
+    a_deg: np.ndarray
+    b_deg: np.ndarray
+    c_deg: np.ndarray
+    q_deg: np.ndarray
+    s_mm: np.ndarray
+    feed_mm_s: np.ndarray
+    accel_mm_s2: np.ndarray
+    jerk_mm_s3: np.ndarray
+    deflection_mm: np.ndarray
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.t_s)[0] if np.ndim(self.t_s) == 1 else -1
+        if n < 0:
+            raise ValueError(f"RsiTable.t_s must be 1-D, got shape {np.shape(self.t_s)}")
+        for f in fields(self):
+            arr = np.array(getattr(self, f.name), dtype=np.float64)  # private, read-only copy
+            want = (n, 6) if f.name == "q_deg" else (n,)
+            if arr.shape != want:
+                raise ValueError(f"RsiTable.{f.name} has shape {arr.shape}, expected {want}")
+            arr.flags.writeable = False
+            object.__setattr__(self, f.name, arr)
+
+    def __len__(self) -> int:
+        return int(self.t_s.shape[0])
+
+    def as_matrix(self) -> np.ndarray:
+        """All columns as an (n, 18) float array in :data:`COLUMNS` order."""
+        return np.column_stack(
+            [
+                self.t_s,
+                self.x_mm,
+                self.y_mm,
+                self.z_mm,
+                self.a_deg,
+                self.b_deg,
+                self.c_deg,
+                self.q_deg,
+                self.s_mm,
+                self.feed_mm_s,
+                self.accel_mm_s2,
+                self.jerk_mm_s3,
+                self.deflection_mm,
+            ]
+        )
+
+    @classmethod
+    def from_matrix(cls, m: np.ndarray) -> RsiTable:
+        """Inverse of :meth:`as_matrix`."""
+        m = np.asarray(m, dtype=np.float64)
+        if m.ndim != 2 or m.shape[1] != len(COLUMNS):
+            raise ValueError(f"expected an (n, {len(COLUMNS)}) matrix, got {m.shape}")
+        c = [m[:, i] for i in range(m.shape[1])]
+        return cls(*c[:7], m[:, 7:13], *c[13:])
+
+    def equals(self, other: RsiTable) -> bool:
+        """Bit-exact equality of every column (``-0.0 != 0.0`` here, NaN == NaN)."""
+        a, b = self.as_matrix(), other.as_matrix()
+        return a.shape == b.shape and a.view(np.uint64).tobytes() == b.view(np.uint64).tobytes()
+
+
+def rsi_table_from_si(
+    t: np.ndarray,
+    position_m: np.ndarray,
+    rotation: np.ndarray,
+    q_rad: np.ndarray,
+    s_m: np.ndarray,
+    feed_m_s: np.ndarray,
+    accel: np.ndarray,
+    jerk: np.ndarray,
+    deflection_m: np.ndarray,
+) -> RsiTable:
+    """Build an :class:`RsiTable` from SI arrays (s, m, rad, m/s, m/s^2, m/s^3).
+
+    ``position_m`` is (n, 3) and ``rotation`` (n, 3, 3): the TCP pose in the robot base frame.
+    A, B, C come from :func:`feedopt.robot.kuka.abc_from_rotation`, then A and C are unwrapped
+    along the rows (``np.unwrap`` with period 360 deg) so a tool pointing down (C near 180 deg)
+    does not flip between +180 and -180 from one cycle to the next; the rotation is unchanged.
+    """
+    t = np.asarray(t, dtype=float)
+    p = np.asarray(position_m, dtype=float)
+    r = np.asarray(rotation, dtype=float)
+    n = t.shape[0]
+    if p.shape != (n, 3) or r.shape != (n, 3, 3):
+        raise ValueError(
+            f"position_m must be ({n}, 3) and rotation ({n}, 3, 3); got {p.shape} and {r.shape}"
+        )
+    abc = abc_from_rotation(r)
+    if n:
+        abc[:, 0] = np.unwrap(abc[:, 0], period=360.0)
+        abc[:, 2] = np.unwrap(abc[:, 2], period=360.0)
+    mm = 1e3
+    return RsiTable(
+        t_s=t,
+        x_mm=p[:, 0] * mm,
+        y_mm=p[:, 1] * mm,
+        z_mm=p[:, 2] * mm,
+        a_deg=abc[:, 0],
+        b_deg=abc[:, 1],
+        c_deg=abc[:, 2],
+        q_deg=np.rad2deg(np.asarray(q_rad, dtype=float)),
+        s_mm=np.asarray(s_m, dtype=float) * mm,
+        feed_mm_s=np.asarray(feed_m_s, dtype=float) * mm,
+        accel_mm_s2=np.asarray(accel, dtype=float) * mm,
+        jerk_mm_s3=np.asarray(jerk, dtype=float) * mm,
+        deflection_mm=np.asarray(deflection_m, dtype=float) * mm,
+    )
+
+
+def _cycle_comment(t: np.ndarray) -> str:
+    if t.shape[0] < 2:
+        return "cycle: single sample"
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    spread = float(np.max(np.abs(dt - med)))
+    return f"cycle_s: {med!r} (largest deviation from it {spread:.3g} s; {t.shape[0]} rows)"
+
+
+def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = ()) -> Path:
+    """Write ``table`` as an RSI CSV; ``comments`` are extra ``#`` lines (scenario, law, ...).
+
+    Refuses (``ValueError``) non-finite values: a controller file must not contain NaN/inf.
+    Returns the path written.
+    """
+    m = table.as_matrix()
+    if m.shape[0] == 0:
+        raise ValueError(f"RSI table is empty; refusing to write {path}")
+    bad = ~np.isfinite(m)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise ValueError(
+            f"RSI table has a non-finite value {float(m[row, col])!r} in column {COLUMNS[col]!r}, "
+            f"row {row}; refusing to write {path}"
+        )
+    lines = [f"# {c}" for c in _HEADER_DOC]
+    lines.append(f"# {_cycle_comment(table.t_s)}")
+    for c in comments:
+        ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
+        lines.extend(f"# {part}" for part in ascii_text.splitlines() or [""])
+    lines.append(",".join(COLUMNS))
+    # tolist() gives Python floats, whose repr is the shortest string that round-trips.
+    lines.extend(",".join(map(repr, row)) for row in m.tolist())
+    path = Path(path)
+    path.write_text("\n".join(lines) + "\n", encoding="ascii")
+    return path
+
+
+def _raise_bad_field(path: Path, lineno: int, parts: list[str]) -> None:
+    """Say which field of a data row is not a finite number."""
+    for i, p in enumerate(parts):
+        try:
+            v = float(p)
+        except ValueError:
+            raise InputError(
+                f"{path}:{lineno}: column {COLUMNS[i]!r} (field {i + 1}) is {p!r}, not a number"
+            ) from None
+        if not math.isfinite(v):
+            raise InputError(
+                f"{path}:{lineno}: column {COLUMNS[i]!r} (field {i + 1}) is {p!r}; "
+                "values must be finite"
+            )
+
+
+def read_rsi_csv(path: str | Path) -> RsiTable:
+    """Read an RSI CSV written by :func:`write_rsi_csv` (or by hand in the same format).
+
+    Raises
+    ------
+    InputError
+        Missing file, wrong header, a row with the wrong number of fields, a field that is not
+        a finite number, or times that do not increase; the message names the line and column.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"RSI CSV {path} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read RSI CSV {path}: {exc}") from None
+    header_line = None
+    rows: list[list[float]] = []
+    line_numbers: list[int] = []
+    ncol = len(COLUMNS)
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        parts = [p.strip() for p in line.split(",")]
+        if header_line is None:
+            header_line = lineno
+            if tuple(parts) != COLUMNS:
+                for i, (got, want) in enumerate(zip(parts, COLUMNS, strict=False)):
+                    if got != want:
+                        raise InputError(
+                            f"{path}:{lineno}: header column {i + 1} is {got!r}, expected "
+                            f"{want!r} (header must be: {','.join(COLUMNS)})"
+                        )
+                raise InputError(
+                    f"{path}:{lineno}: header has {len(parts)} columns, expected {ncol} "
+                    f"({','.join(COLUMNS)})"
+                )
+            continue
+        if len(parts) != ncol:
+            raise InputError(
+                f"{path}:{lineno}: row has {len(parts)} fields, expected {ncol} "
+                f"(one per column {','.join(COLUMNS)})"
+            )
+        try:
+            values = list(map(float, parts))
+        except ValueError:
+            values = None
+        if values is None or not all(map(math.isfinite, values)):
+            _raise_bad_field(path, lineno, parts)
+        rows.append(values)
+        line_numbers.append(lineno)
+    if header_line is None:
+        raise InputError(f"{path}: no header row found (expected: {','.join(COLUMNS)})")
+    if not rows:
+        raise InputError(f"{path}: header found on line {header_line} but no data rows")
+    m = np.array(rows, dtype=np.float64)
+    dt = np.diff(m[:, 0])
+    if (dt <= 0).any():
+        k = int(np.argmax(dt <= 0)) + 1
+        raise InputError(
+            f"{path}:{line_numbers[k]}: column 't_s' is {float(m[k, 0])!r}, not greater "
+            f"than the previous row's {float(m[k - 1, 0])!r}; time must increase strictly"
+        )
+    return RsiTable.from_matrix(m)

@@ -1,0 +1,219 @@
+"""What the report needs, in report units (mm, mm/s, deg/s, s), and the summary.json reader.
+
+The scenario runner fills :class:`ReportData` from the verified trajectories; the report
+never imports the planning stages. ``summary.json`` (``shared/design.md``, "Files other tools
+read") is validated by :func:`validate_summary` before a table is printed from it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.errors import InputError
+
+# Per-law keys of summary.json and their kinds ("num": number or null, "bool": bool or null).
+LAW_KEYS: dict[str, str] = {
+    "cycle_time_s": "num",
+    "lower_bound_s": "num",
+    "max_deflection_mm": "num",
+    "max_feed_mm_s": "num",
+    "min_feed_mm_s": "num",
+    "max_accel_mm_s2": "num",
+    "max_jerk_mm_s3": "num",
+    "c2": "bool",
+    "verified": "bool",
+    "planning_time_s": "num",
+}
+OPTIONAL_LAW_KEYS: dict[str, str] = {"deflection_ratio": "num"}
+
+
+def _ro(a, shape_tail: tuple[int, ...] = (), name: str = "") -> np.ndarray:
+    arr = np.array(a, dtype=np.float64)
+    if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
+        raise ValueError(f"{name} must have shape (n{''.join(f', {d}' for d in shape_tail)}), "
+                         f"got {arr.shape}")
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True)
+class LawSeries:
+    """One timing law's curves for the report.
+
+    Path-sample curves (length k, the verifier's samples): ``s_mm``, ``feed_mm_s``,
+    ``deflection_mm`` (predicted at the commanded feed). Time curves (length m, e.g. the RSI
+    cycle): ``t_s``, ``feed_t_mm_s``, ``accel_mm_s2``, ``jerk_mm_s3``, ``joint_velocity_deg_s``
+    (m, 6).
+    """
+
+    law: str
+    s_mm: np.ndarray
+    feed_mm_s: np.ndarray
+    deflection_mm: np.ndarray
+    t_s: np.ndarray
+    feed_t_mm_s: np.ndarray
+    accel_mm_s2: np.ndarray
+    jerk_mm_s3: np.ndarray
+    joint_velocity_deg_s: np.ndarray
+    verified: bool = True
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("s_mm", "feed_mm_s", "deflection_mm", "t_s", "feed_t_mm_s",
+                     "accel_mm_s2", "jerk_mm_s3"):
+            object.__setattr__(self, name, _ro(getattr(self, name), name=f"{self.law}.{name}"))
+        object.__setattr__(
+            self,
+            "joint_velocity_deg_s",
+            _ro(self.joint_velocity_deg_s, (6,), f"{self.law}.joint_velocity_deg_s"),
+        )
+        k, m = self.s_mm.shape[0], self.t_s.shape[0]
+        for name in ("feed_mm_s", "deflection_mm"):
+            if getattr(self, name).shape[0] != k:
+                raise ValueError(f"{self.law}.{name} has {getattr(self, name).shape[0]} "
+                                 f"samples, s_mm has {k}")
+        for name in ("feed_t_mm_s", "accel_mm_s2", "jerk_mm_s3", "joint_velocity_deg_s"):
+            if getattr(self, name).shape[0] != m:
+                raise ValueError(f"{self.law}.{name} has {getattr(self, name).shape[0]} "
+                                 f"samples, t_s has {m}")
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+
+
+def law_series_from_si(
+    law: str,
+    s_m: np.ndarray,
+    feed_m_s: np.ndarray,
+    deflection_m: np.ndarray,
+    t: np.ndarray,
+    feed_t_m_s: np.ndarray,
+    accel: np.ndarray,
+    jerk: np.ndarray,
+    joint_velocity_rad_s: np.ndarray,
+    verified: bool = True,
+    notes: Sequence[str] = (),
+) -> LawSeries:
+    """:class:`LawSeries` from SI arrays (m, m/s, m/s^2, m/s^3, rad/s); converts to mm, deg."""
+    mm = 1e3
+    return LawSeries(
+        law=law,
+        s_mm=np.asarray(s_m, dtype=float) * mm,
+        feed_mm_s=np.asarray(feed_m_s, dtype=float) * mm,
+        deflection_mm=np.asarray(deflection_m, dtype=float) * mm,
+        t_s=np.asarray(t, dtype=float),
+        feed_t_mm_s=np.asarray(feed_t_m_s, dtype=float) * mm,
+        accel_mm_s2=np.asarray(accel, dtype=float) * mm,
+        jerk_mm_s3=np.asarray(jerk, dtype=float) * mm,
+        joint_velocity_deg_s=np.rad2deg(np.asarray(joint_velocity_rad_s, dtype=float)),
+        verified=bool(verified),
+        notes=tuple(notes),
+    )
+
+
+@dataclass(frozen=True)
+class ReportData:
+    """Everything :func:`feedopt.report.html.write_report` draws.
+
+    Attributes
+    ----------
+    scenario : scenario name (report title).
+    summary : the ``summary.json`` content (``{"scenario": {...}, "laws": {law: {...}}}``);
+        the comparison table is made from it.
+    path_xyz_mm : (k, 3) path samples in the robot base frame [mm].
+    segment_kind : (k,) kind of segment each sample lies on (``"line"``, ``"blend"``, ...);
+        samples whose kind is not ``"line"`` are drawn as blends.
+    laws : one :class:`LawSeries` per law, in the order to report them.
+    joint_velocity_limit_deg_s : (6,) joint speed limits [deg/s].
+    deflection_limit_mm : the user's deflection limit [mm].
+    """
+
+    scenario: str
+    summary: Mapping
+    path_xyz_mm: np.ndarray
+    segment_kind: np.ndarray
+    laws: tuple[LawSeries, ...]
+    joint_velocity_limit_deg_s: np.ndarray
+    deflection_limit_mm: float
+    notes: tuple[str, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        xyz = _ro(self.path_xyz_mm, (3,), "path_xyz_mm")
+        object.__setattr__(self, "path_xyz_mm", xyz)
+        kind = np.asarray(self.segment_kind, dtype=str)
+        if kind.shape != (xyz.shape[0],):
+            raise ValueError(f"segment_kind has shape {kind.shape}, expected ({xyz.shape[0]},)")
+        object.__setattr__(self, "segment_kind", kind)
+        lim = np.array(self.joint_velocity_limit_deg_s, dtype=float).reshape(-1)
+        if lim.shape != (6,):
+            raise ValueError(f"joint_velocity_limit_deg_s must have 6 values, got {lim.shape}")
+        lim.flags.writeable = False
+        object.__setattr__(self, "joint_velocity_limit_deg_s", lim)
+        object.__setattr__(self, "laws", tuple(self.laws))
+        if not self.laws:
+            raise ValueError("ReportData needs at least one law")
+        for ls in self.laws:
+            if ls.s_mm.shape[0] != xyz.shape[0]:
+                raise ValueError(
+                    f"law {ls.law!r} has {ls.s_mm.shape[0]} path samples, the path has "
+                    f"{xyz.shape[0]}: give its curves at the path samples"
+                )
+        object.__setattr__(self, "deflection_limit_mm", float(self.deflection_limit_mm))
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
+
+
+def _check_value(kind: str, value, where: str) -> None:
+    if value is None:
+        return
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise InputError(f"{where} must be true, false or null, got {value!r}")
+    elif isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where} must be a number or null, got {value!r}")
+
+
+def validate_summary(obj, source: str = "summary.json") -> dict:
+    """Check the structure of a summary.json object; return it. Raises :class:`InputError`."""
+    if not isinstance(obj, dict):
+        raise InputError(f"{source}: top level must be an object with 'laws', got "
+                         f"{type(obj).__name__}")
+    laws = obj.get("laws")
+    if not isinstance(laws, dict) or not laws:
+        raise InputError(f"{source}: missing or empty 'laws' object (one entry per timing law)")
+    for law, row in laws.items():
+        if not isinstance(row, dict):
+            raise InputError(f"{source}: laws.{law} must be an object, got {row!r}")
+        missing = [k for k in LAW_KEYS if k not in row]
+        if missing:
+            raise InputError(f"{source}: laws.{law} lacks {', '.join(missing)}")
+        for key, kind in {**LAW_KEYS, **OPTIONAL_LAW_KEYS}.items():
+            _check_value(kind, row.get(key), f"{source}: laws.{law}.{key}")
+    scen = obj.get("scenario", {})
+    if not isinstance(scen, dict):
+        raise InputError(f"{source}: 'scenario' must be an object, got {scen!r}")
+    return obj
+
+
+def load_summary(path: str | Path) -> dict:
+    """Read and validate ``summary.json``; ``path`` may be the file or its run directory."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "summary.json"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(
+            f"{path} does not exist (give a directory written by `feedopt run`)"
+        ) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read {path}: {exc}") from None
+    try:
+        obj = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(
+            f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
+    return validate_summary(obj, str(path))

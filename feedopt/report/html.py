@@ -1,0 +1,115 @@
+"""Write ``report.md`` (PNG files beside it) and a self-contained ``report.html``.
+
+The HTML embeds every figure as a base64 ``data:`` URI and has inline CSS only: no scripts,
+links or other external resources, so it can be mailed or archived as one file. Everything is
+rendered in memory first and written last, each file through a temporary name, so a failure
+while drawing leaves no half-written report behind.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import os
+from pathlib import Path
+
+from feedopt.report.data import ReportData
+from feedopt.report.plots import FIGURES, render_png
+from feedopt.report.tables import comparison_table, comparison_table_html
+
+_CSS = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+table.comparison { border-collapse: collapse; font-size: 0.85em; }
+table.comparison th, table.comparison td { border: 1px solid #bbb; padding: 0.25em 0.5em; }
+table.comparison td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.bad { color: #b00; font-weight: bold; }
+figure { margin: 1.5em 0; } figure img { max-width: 100%; }
+figcaption { font-size: 0.9em; color: #444; }
+"""
+
+_LEGEND = (
+    "T: cycle time; T*: lower bound on the cycle time of the law's problem; "
+    "T(constant): cycle time at the constant nominal feed; defl./limit: largest predicted "
+    "deflection over the limit (<= 1 meets it); verified: the replay of the trajectory "
+    "passed every check."
+)
+
+
+def _notes_lines(data: ReportData) -> list[tuple[str, str]]:
+    """(law, text) pairs: verification status and the law's notes."""
+    out = [("", n) for n in data.notes]
+    for ls in data.laws:
+        status = "verified" if ls.verified else "NOT verified: not exported as RSI CSV"
+        out.append((ls.law, status))
+        out.extend((ls.law, n) for n in ls.notes)
+    return out
+
+
+def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
+    """Markdown text, HTML text and ``{png file name: bytes}`` of the report (nothing written)."""
+    pngs: dict[str, bytes] = {}
+    for spec in FIGURES:
+        fig = spec.draw(data)
+        pngs[f"report_{spec.key}.png"] = render_png(fig)
+    table_md = comparison_table([data.summary])
+    title = f"feedopt report: {data.scenario}"
+    limit = f"Deflection limit: {data.deflection_limit_mm:g} mm."
+
+    md = [f"# {title}", "", "## Comparison of timing laws", "", table_md, "", limit, "",
+          _LEGEND, "", "## Verification and notes", ""]
+    for law, text in _notes_lines(data):
+        md.append(f"- **{law}**: {text}" if law else f"- {text}")
+    md += ["", "## Figures", ""]
+    for k, spec in enumerate(FIGURES, start=1):
+        md += [f"![{spec.caption}](report_{spec.key}.png)", "",
+               f"*Figure {k}: {spec.caption}*", ""]
+
+    esc = html.escape
+    h = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{esc(title)}</title>",
+        f"<style>{_CSS}</style>",
+        "</head><body>",
+        f"<h1>{esc(title)}</h1>",
+        "<h2>Comparison of timing laws</h2>",
+        comparison_table_html([data.summary]),
+        f"<p>{esc(limit)}</p>",
+        f"<p>{esc(_LEGEND)}</p>",
+        "<h2>Verification and notes</h2>",
+        "<ul>",
+    ]
+    for law, text in _notes_lines(data):
+        h.append(f"<li><b>{esc(law)}</b>: {esc(text)}</li>" if law else f"<li>{esc(text)}</li>")
+    h += ["</ul>", "<h2>Figures</h2>"]
+    for k, spec in enumerate(FIGURES, start=1):
+        b64 = base64.b64encode(pngs[f"report_{spec.key}.png"]).decode("ascii")
+        h.append(
+            f'<figure id="fig-{spec.key}"><img alt="{esc(spec.caption)}" '
+            f'src="data:image/png;base64,{b64}">'
+            f"<figcaption>Figure {k}: {esc(spec.caption)}</figcaption></figure>"
+        )
+    h.append("</body></html>")
+    return "\n".join(md) + "\n", "\n".join(h) + "\n", pngs
+
+
+def _write_atomic(path: Path, payload: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_bytes(payload)
+    os.replace(tmp, path)
+
+
+def write_report(out_dir: str | Path, data: ReportData) -> tuple[Path, Path]:
+    """Write ``report.md``, its ``report_*.png`` figures and ``report.html`` into ``out_dir``.
+
+    Returns ``(md_path, html_path)``. The directory is created if needed.
+    """
+    out = Path(out_dir)
+    md, page, pngs = render_report(data)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, payload in pngs.items():
+        _write_atomic(out / name, payload)
+    md_path, html_path = out / "report.md", out / "report.html"
+    _write_atomic(md_path, md.encode("utf-8"))
+    _write_atomic(html_path, page.encode("utf-8"))
+    return md_path, html_path

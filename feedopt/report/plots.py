@@ -1,0 +1,261 @@
+"""The report's figures (matplotlib, Agg canvas; no pyplot global state).
+
+Each ``plot_*`` function takes a :class:`~feedopt.report.data.ReportData` and returns a
+:class:`matplotlib.figure.Figure`; :func:`figures` lists them with their captions and
+:func:`render_png` turns one into PNG bytes.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import LineCollection
+from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
+
+from feedopt.report.data import LawSeries, ReportData
+
+_LAW_COLORS = {
+    "constant": "0.35",
+    "thesis": "tab:blue",
+    "topp": "tab:orange",
+    "convex": "tab:green",
+    "jerk": "tab:purple",
+}
+_FALLBACK = ["tab:red", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
+_LIMIT_STYLE = {"color": "tab:red", "linestyle": "--", "linewidth": 1.2}
+_DPI = 100
+# Curves longer than this are drawn through their min/max envelope (peaks kept, see _env).
+MAX_CURVE_POINTS = 4000
+MAX_PATH_SEGMENTS = 1500
+
+
+def law_color(law: str, index: int = 0) -> str:
+    """Stable colour of a timing law across all figures."""
+    return _LAW_COLORS.get(law, _FALLBACK[index % len(_FALLBACK)])
+
+
+def _label(ls: LawSeries) -> str:
+    return ls.law if ls.verified else f"{ls.law} (NOT verified)"
+
+
+def _env(y: np.ndarray, max_points: int = MAX_CURVE_POINTS) -> np.ndarray:
+    """Indices of a min/max envelope of ``y`` with at most ~``max_points`` points.
+
+    The samples are cut into ``max_points // 2`` consecutive buckets and the smallest and
+    largest sample of each are kept (plus both ends), so peaks survive the decimation.
+    """
+    n = y.shape[0]
+    if n <= max_points:
+        return np.arange(n)
+    nb = max_points // 2
+    size = -(-n // nb)
+    padded = np.concatenate([y, np.full(nb * size - n, y[-1])]).reshape(nb, size)
+    base = np.arange(nb) * size
+    idx = np.concatenate([[0, n - 1], base + padded.argmin(axis=1), base + padded.argmax(axis=1)])
+    idx = np.unique(idx)
+    return idx[idx < n]
+
+
+def _plot(ax, x: np.ndarray, y: np.ndarray, **kw):
+    i = _env(y)
+    return ax.plot(x[i], y[i], **kw)
+
+
+def _new_figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), dpi=_DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def render_png(fig: Figure) -> bytes:
+    """PNG bytes of a figure (no timestamp metadata, so identical inputs give identical bytes)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=_DPI, metadata={"Software": None})
+    return buf.getvalue()
+
+
+def _plane_axes(xyz: np.ndarray) -> tuple[int, int]:
+    """The two base-frame axes along which the path extends most, in x<y<z order."""
+    extent = np.ptp(xyz, axis=0) if xyz.shape[0] else np.ones(3)
+    i, j = sorted(np.argsort(extent)[-2:])
+    return int(i), int(j)
+
+
+def plot_path_feed(data: ReportData) -> Figure:
+    """The path (projected on its two widest base axes) coloured by feed, one panel per law.
+
+    Blends (samples whose segment kind is not ``"line"``) are underlaid in grey.
+    """
+    kind = data.segment_kind
+    n_pts = kind.shape[0]
+    # Long paths: every step-th sample plus both samples around each change of segment kind.
+    step = max(1, -(-n_pts // MAX_PATH_SEGMENTS))
+    change = np.flatnonzero(kind[1:] != kind[:-1])
+    keep = np.unique(np.concatenate([np.arange(0, n_pts, step), change, change + 1, [n_pts - 1]]))
+    xyz = data.path_xyz_mm[keep]
+    i, j = _plane_axes(xyz)
+    pts = xyz[:, [i, j]]
+    segs = np.stack([pts[:-1], pts[1:]], axis=1)
+    blend = kind[keep] != "line"
+    blend_seg = blend[:-1] & blend[1:]
+    n = len(data.laws)
+    ncols = min(n, 2)
+    nrows = -(-n // ncols)
+    fig = _new_figure(6.0 * ncols, 3.6 * nrows)
+    axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
+    feeds = np.concatenate([ls.feed_mm_s for ls in data.laws])
+    norm = Normalize(vmin=float(np.min(feeds)), vmax=float(np.max(feeds)))
+    if norm.vmin == norm.vmax:
+        norm = Normalize(vmin=norm.vmin - 0.5, vmax=norm.vmax + 0.5)
+    names = "xyz"
+    lc = None
+    for ax, ls in zip(axes, data.laws, strict=False):
+        if blend_seg.any():
+            ax.add_collection(
+                LineCollection(segs[blend_seg], colors="0.8", linewidths=7, zorder=1,
+                               label="blend")
+            )
+        feed = ls.feed_mm_s[keep]
+        seg_feed = 0.5 * (feed[:-1] + feed[1:])
+        lc = LineCollection(segs, array=seg_feed, cmap="viridis", norm=norm, linewidths=2.5,
+                            zorder=2)
+        ax.add_collection(lc)
+        ax.autoscale_view()
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(_label(ls))
+        ax.set_xlabel(f"{names[i]} [mm] (robot base)")
+        ax.set_ylabel(f"{names[j]} [mm] (robot base)")
+        if blend_seg.any():
+            ax.legend(loc="best", fontsize="small")
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    if lc is not None:
+        fig.colorbar(lc, ax=axes[:n].tolist(), label="feed [mm/s]", shrink=0.9)
+    return fig
+
+
+def plot_deflection(data: ReportData) -> Figure:
+    """Predicted deflection vs s: constant feed against each law, limit line (Fig. 3.18/4.4)."""
+    const = next((ls for ls in data.laws if ls.law == "constant"), None)
+    others = [ls for ls in data.laws if ls.law != "constant"] or [const]
+    n = len(others)
+    fig = _new_figure(8.0, 2.4 * n + 0.6)
+    axes = np.atleast_1d(fig.subplots(n, 1, sharex=True, squeeze=False)).ravel()
+    for k, (ax, ls) in enumerate(zip(axes, others, strict=True)):
+        if const is not None and ls is not const:
+            _plot(ax, const.s_mm, const.deflection_mm, color=law_color("constant"), lw=1.0,
+                    label=_label(const))
+        _plot(ax, ls.s_mm, ls.deflection_mm, color=law_color(ls.law, k), lw=1.4, label=_label(ls))
+        ax.axhline(data.deflection_limit_mm, label=f"limit {data.deflection_limit_mm:g} mm",
+                   **_LIMIT_STYLE)
+        ax.set_ylabel("deflection [mm]")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    axes[-1].set_xlabel("arc length s [mm]")
+    return fig
+
+
+def plot_feed(data: ReportData) -> Figure:
+    """Feed vs arc length and vs time, every law (Fig. 3.19/4.5)."""
+    fig = _new_figure(8.0, 6.0)
+    ax_s, ax_t = fig.subplots(2, 1)
+    for k, ls in enumerate(data.laws):
+        c = law_color(ls.law, k)
+        _plot(ax_s, ls.s_mm, ls.feed_mm_s, color=c, lw=1.3, label=_label(ls))
+        _plot(ax_t, ls.t_s, ls.feed_t_mm_s, color=c, lw=1.3, label=_label(ls))
+    ax_s.set_xlabel("arc length s [mm]")
+    ax_t.set_xlabel("time t [s]")
+    for ax in (ax_s, ax_t):
+        ax.set_ylabel("feed [mm/s]")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_accel_jerk(data: ReportData) -> Figure:
+    """Tangential acceleration and jerk vs time, every law."""
+    fig = _new_figure(8.0, 6.0)
+    ax_a, ax_j = fig.subplots(2, 1, sharex=True)
+    for k, ls in enumerate(data.laws):
+        c = law_color(ls.law, k)
+        _plot(ax_a, ls.t_s, ls.accel_mm_s2, color=c, lw=1.2, label=_label(ls))
+        _plot(ax_j, ls.t_s, ls.jerk_mm_s3, color=c, lw=1.2, label=_label(ls))
+    ax_a.set_ylabel("tangential acceleration [mm/s^2]")
+    ax_j.set_ylabel("tangential jerk [mm/s^3]")
+    ax_j.set_xlabel("time t [s]")
+    for ax in (ax_a, ax_j):
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def plot_joint_velocity(data: ReportData) -> Figure:
+    """Joint velocities vs time against their limits, one panel per joint."""
+    fig = _new_figure(11.0, 5.5)
+    axes = fig.subplots(2, 3, sharex=True).ravel()
+    for j, ax in enumerate(axes):
+        lim = data.joint_velocity_limit_deg_s[j]
+        for k, ls in enumerate(data.laws):
+            _plot(ax, ls.t_s, ls.joint_velocity_deg_s[:, j], color=law_color(ls.law, k), lw=1.1,
+                    label=_label(ls))
+        peak = max(float(np.max(np.abs(ls.joint_velocity_deg_s[:, j]))) for ls in data.laws)
+        ax.axhline(lim, label=f"limit {lim:g} deg/s", **_LIMIT_STYLE)
+        ax.axhline(-lim, **_LIMIT_STYLE)
+        ax.set_title(f"A{j + 1}: peak {peak:.3g} deg/s = {peak / lim:.2%} of {lim:g}"
+                     if lim > 0 else f"A{j + 1}", fontsize="medium")
+        ax.set_ylabel("velocity [deg/s]")
+        ax.grid(alpha=0.3)
+        # The limits are usually far above milling speeds: zoom on the data, say so in title.
+        span = max(peak * 1.3, 1e-9)
+        ax.set_ylim(-min(span, 1.1 * lim), min(span, 1.1 * lim))
+    for ax in axes[3:]:
+        ax.set_xlabel("time t [s]")
+    axes[0].legend(loc="best", fontsize="x-small")
+    return fig
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """A report figure: file key, caption, and the function that draws it."""
+
+    key: str
+    caption: str
+    draw: object
+
+
+FIGURES: tuple[FigureSpec, ...] = (
+    FigureSpec(
+        "path",
+        "Tool path in the robot base frame, coloured by commanded feed, one panel per law; "
+        "blends are underlaid in grey.",
+        plot_path_feed,
+    ),
+    FigureSpec(
+        "deflection",
+        "Predicted static deflection vs arc length at the commanded feed: constant feed "
+        "against each law, with the deflection limit (thesis Fig. 3.18 / 4.4).",
+        plot_deflection,
+    ),
+    FigureSpec(
+        "feed",
+        "Commanded feed vs arc length (top) and vs time (bottom) (thesis Fig. 3.19 / 4.5).",
+        plot_feed,
+    ),
+    FigureSpec(
+        "accel_jerk",
+        "Tangential acceleration (top) and jerk (bottom) vs time.",
+        plot_accel_jerk,
+    ),
+    FigureSpec(
+        "joints",
+        "Joint velocities vs time against the joint velocity limits (dashed); the axes are "
+        "zoomed on the data when the limits are far away (see each panel's title).",
+        plot_joint_velocity,
+    ),
+)

@@ -1,0 +1,114 @@
+"""Report: every figure is drawn, embedded in a self-contained HTML and referenced by the md."""
+
+from __future__ import annotations
+
+import base64
+import re
+
+import numpy as np
+import pytest
+
+from feedopt.report.data import LawSeries, ReportData
+from feedopt.report.html import write_report
+from feedopt.report.plots import FIGURES, plot_deflection, plot_path_feed
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, report_data):
+    out = tmp_path_factory.mktemp("report") / "out"  # created by write_report
+    return out, write_report(out, report_data)
+
+
+def test_html_embeds_every_figure_and_nothing_external(written):
+    _, (md_path, html_path) = written
+    page = html_path.read_text()
+    images = re.findall(r'<img [^>]*src="([^"]*)"', page)
+    assert len(images) == len(FIGURES) == 5
+    for src in images:
+        assert src.startswith("data:image/png;base64,")
+        assert base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC)
+    for k, spec in enumerate(FIGURES, start=1):
+        assert f'id="fig-{spec.key}"' in page
+        assert f"Figure {k}: " in page
+    # self-contained: no scripts, stylesheets, links or remote URLs
+    for needle in ("http://", "https://", "<script", "<link", "<iframe", "url("):
+        assert needle not in page
+    assert all(src.startswith("data:") for src in re.findall(r'src="([^"]*)"', page))
+    # escaped scenario name, comparison table, verification status
+    assert "triangle_slot &lt;test&gt;" in page and "<test>" not in page
+    assert '<table class="comparison">' in page and "<td" in page
+    assert "NOT verified" in page
+
+
+def test_markdown_references_png_files_that_match_the_html(written):
+    tmp_path, (md_path, html_path) = written
+    assert md_path == tmp_path / "report.md" and html_path == tmp_path / "report.html"
+    md = md_path.read_text()
+    page = html_path.read_text()
+    refs = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
+    assert refs == [f"report_{spec.key}.png" for spec in FIGURES]
+    for ref in refs:
+        payload = (tmp_path / ref).read_bytes()
+        assert payload.startswith(PNG_MAGIC)
+        assert base64.b64encode(payload).decode() in page
+    assert "| thesis" in md and "defl./limit" in md
+    assert "**topp**: NOT verified" in md and "thesis note" in md
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_deflection_figure_has_the_limit_and_constant_in_each_panel(report_data):
+    fig = plot_deflection(report_data)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 2  # thesis and topp, each against constant
+    for ax in axes:
+        ys = [np.asarray(ln.get_ydata(), dtype=float) for ln in ax.get_lines()]
+        assert any(np.all(y == 0.29) for y in ys)  # the limit line
+        labels = [ln.get_label() for ln in ax.get_lines()]
+        assert "constant" in labels
+    const = report_data.laws[0]
+    line = next(ln for ln in axes[0].get_lines() if ln.get_label() == "constant")
+    np.testing.assert_array_equal(line.get_ydata(), const.deflection_mm)
+
+
+def test_path_figure_colours_segments_by_feed(report_data):
+    fig = plot_path_feed(report_data)
+    from matplotlib.collections import LineCollection
+
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_title()]
+    assert [ax.get_title() for ax in panels] == ["constant", "thesis", "topp (NOT verified)"]
+    thesis = report_data.laws[1]
+    colls = [c for c in panels[1].collections
+             if isinstance(c, LineCollection) and c.get_array() is not None]
+    np.testing.assert_allclose(colls[0].get_array(),
+                               0.5 * (thesis.feed_mm_s[:-1] + thesis.feed_mm_s[1:]))
+    # blends underlaid: one grey segment per pair of consecutive blend samples
+    blend = report_data.segment_kind != "line"
+    grey = [c for c in panels[1].collections if c.get_label() == "blend"]
+    assert len(grey[0].get_segments()) == int(np.sum(blend[:-1] & blend[1:]))
+
+
+def test_report_data_checks_shapes(report_data):
+    law = report_data.laws[0]
+    short = LawSeries(law.law, law.s_mm[:-1], law.feed_mm_s[:-1], law.deflection_mm[:-1],
+                      law.t_s, law.feed_t_mm_s, law.accel_mm_s2, law.jerk_mm_s3,
+                      law.joint_velocity_deg_s)
+    with pytest.raises(ValueError, match="path samples"):
+        ReportData("x", report_data.summary, report_data.path_xyz_mm,
+                   report_data.segment_kind, (short,), np.ones(6), 0.29)
+    with pytest.raises(ValueError, match="joint_velocity_deg_s"):
+        LawSeries("x", law.s_mm, law.feed_mm_s, law.deflection_mm, law.t_s, law.feed_t_mm_s,
+                  law.accel_mm_s2, law.jerk_mm_s3, law.joint_velocity_deg_s[:, :5])
+    with pytest.raises(ValueError, match="feed_t_mm_s"):
+        LawSeries("x", law.s_mm, law.feed_mm_s, law.deflection_mm, law.t_s,
+                  law.feed_t_mm_s[1:], law.accel_mm_s2, law.jerk_mm_s3,
+                  law.joint_velocity_deg_s)
+
+
+def test_law_series_from_si_converts_units(report_data):
+    thesis = report_data.laws[1]
+    assert thesis.feed_mm_s.max() == pytest.approx(4.02)
+    assert thesis.deflection_mm.max() == pytest.approx(0.285)
+    # joint velocities were built as 0.1 * j * sin(t) deg/s in radians
+    np.testing.assert_allclose(thesis.joint_velocity_deg_s[:, 5], 0.6 * np.sin(thesis.t_s))
