@@ -1,0 +1,272 @@
+"""Robot description: URDF kinematics (pinocchio) + ``robot.yaml`` (stiffness, limits, tool).
+
+A robot directory holds a URDF and a ``robot.yaml``::
+
+    name: kuka_kr500_3
+    urdf: kr500_3.urdf
+    flange_frame: flange            # or tcp_frame: <frame already in the URDF>
+    tool: {tcp_xyz_mm: [400, 0, 0], tcp_rpy_deg: [0, -90, 0], source: "..."}
+    joint_stiffness_mnm_per_rad: {cp: [6 values], dpp: [6 values], source: "..."}
+    joint_velocity_deg_s: {values: [6 values], source: "..."}
+    joint_acceleration_deg_s2: {values: [6 values], source: "..."}
+    kinematics_source: "..."        # optional: where the URDF numbers come from
+    joint_limits_source: "..."      # optional: where the URDF joint ranges come from
+
+Units are converted to SI here, once. The TCP frame sits at the tool tip with +z along the
+tool axis, pointing into the spindle (shared/design.md); ``tool.tcp_rpy_deg`` are URDF-style
+fixed-axis roll-pitch-yaw angles of the TCP frame in the flange frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from feedopt.errors import InputError
+
+TCP_FRAME_NAME = "feedopt_tcp"
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A serial robot with its tool, joint limits and joint stiffness (SI units, radians).
+
+    Attributes
+    ----------
+    name : str
+        Robot name (from ``robot.yaml``).
+    model : pin.Model
+        Pinocchio kinematic model; ``tcp_frame_id`` names the TCP frame in it.
+    tcp_frame_id : int
+        Frame index of the TCP (added to ``model`` for the tool when needed).
+    q_lower, q_upper : (dof,) arrays
+        Joint position limits [rad].
+    joint_velocity_max, joint_acceleration_max : (dof,) arrays
+        Symmetric joint speed [rad/s] and acceleration [rad/s^2] limits.
+    stiffness : dict[str, (dof,) array]
+        Joint stiffness sets, e.g. ``{"cp": ..., "dpp": ...}`` [N m/rad] (thesis Table 3.4).
+    tcp_offset : (4, 4) array
+        Homogeneous transform flange -> TCP [m] (identity when ``tcp_frame`` is used and no
+        flange is named).
+    sources : dict[str, str]
+        Where each group of numbers comes from.
+    joint_names : tuple of str
+        Names of the actuated joints, in configuration order.
+    """
+
+    name: str
+    model: pin.Model
+    tcp_frame_id: int
+    q_lower: np.ndarray
+    q_upper: np.ndarray
+    joint_velocity_max: np.ndarray
+    joint_acceleration_max: np.ndarray
+    stiffness: dict[str, np.ndarray]
+    tcp_offset: np.ndarray
+    sources: dict[str, str]
+    joint_names: tuple[str, ...] = field(default=())
+
+    @property
+    def dof(self) -> int:
+        """Number of joints."""
+        return int(self.model.nq)
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def _values(doc: dict, key: str, dof: int, scale: float, where: Path) -> tuple[np.ndarray, str]:
+    """Read ``key`` as ``{values: [...], source: ...}`` (or a bare list) scaled to SI."""
+    if key not in doc:
+        raise InputError(f"{where}: missing field '{key}' ({dof} values with a 'source:' line)")
+    entry = doc[key]
+    source = ""
+    if isinstance(entry, dict):
+        source = str(entry.get("source", ""))
+        entry = entry.get("values")
+    arr = _as_vector(entry, dof, f"{where}: {key}")
+    if np.any(arr <= 0):
+        raise InputError(f"{where}: {key} must be positive, got {arr.tolist()}")
+    return arr * scale, source
+
+
+def _as_vector(entry: object, dof: int, what: str) -> np.ndarray:
+    try:
+        arr = np.asarray(entry, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{what}: expected {dof} numbers, got {entry!r}") from exc
+    if arr.shape != (dof,) or not np.all(np.isfinite(arr)):
+        raise InputError(f"{what}: expected {dof} finite numbers, got {entry!r}")
+    return arr
+
+
+def _tool_transform(tool: dict, where: Path) -> np.ndarray:
+    xyz = _as_vector(tool.get("tcp_xyz_mm", [0, 0, 0]), 3, f"{where}: tool.tcp_xyz_mm") * 1e-3
+    rpy = _as_vector(tool.get("tcp_rpy_deg", [0, 0, 0]), 3, f"{where}: tool.tcp_rpy_deg")
+    t = np.eye(4)
+    t[:3, :3] = pin.rpy.rpyToMatrix(*np.deg2rad(rpy))
+    t[:3, 3] = xyz
+    return t
+
+
+def load_robot(directory: str | Path) -> RobotModel:
+    """Load a robot directory (``robot.yaml`` + the URDF it names) into a :class:`RobotModel`.
+
+    Raises
+    ------
+    InputError
+        Missing files or fields, wrong vector lengths, non-positive stiffness or limits.
+    """
+    directory = Path(directory)
+    yaml_path = directory / "robot.yaml"
+    if not yaml_path.is_file():
+        raise InputError(f"{directory}: no robot.yaml found (a robot directory needs one)")
+    try:
+        doc = yaml.safe_load(yaml_path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise InputError(f"{yaml_path}: not valid YAML: {exc}") from exc
+    if not isinstance(doc, dict):
+        raise InputError(f"{yaml_path}: expected a mapping at the top level")
+    if "urdf" not in doc:
+        raise InputError(f"{yaml_path}: missing field 'urdf' (file name of the URDF)")
+    urdf_path = directory / str(doc["urdf"])
+    if not urdf_path.is_file():
+        raise InputError(f"{yaml_path}: urdf file '{urdf_path}' does not exist")
+    try:
+        model = pin.buildModelFromUrdf(str(urdf_path))
+    except (RuntimeError, ValueError) as exc:
+        raise InputError(f"{urdf_path}: pinocchio could not read the URDF: {exc}") from exc
+    dof = int(model.nq)
+    if model.nv != dof:
+        raise InputError(f"{urdf_path}: only revolute/prismatic joints are supported (nq != nv)")
+
+    sources: dict[str, str] = {
+        "kinematics": str(doc.get("kinematics_source", f"URDF {urdf_path.name}")),
+        "joint_limits": str(doc.get("joint_limits_source", f"URDF {urdf_path.name} <limit>")),
+    }
+
+    # TCP frame: either one already in the URDF, or flange frame + tool transform.
+    tool = doc.get("tool") or {}
+    if not isinstance(tool, dict):
+        raise InputError(f"{yaml_path}: 'tool' must be a mapping")
+    if "tcp_frame" in doc:
+        name = str(doc["tcp_frame"])
+        if not model.existFrame(name):
+            raise InputError(f"{yaml_path}: tcp_frame '{name}' is not a frame of {urdf_path.name}")
+        tcp_frame_id = int(model.getFrameId(name))
+        tcp_offset = np.eye(4)
+        sources["tool"] = str(tool.get("source", f"TCP frame '{name}' of the URDF"))
+    else:
+        flange = str(doc.get("flange_frame", ""))
+        if not flange or not model.existFrame(flange):
+            raise InputError(
+                f"{yaml_path}: give 'tcp_frame' or a 'flange_frame' that exists in "
+                f"{urdf_path.name} (got {flange!r})"
+            )
+        fid = int(model.getFrameId(flange))
+        tcp_offset = _tool_transform(tool, yaml_path)
+        parent = model.frames[fid]
+        placement = parent.placement * pin.SE3(tcp_offset[:3, :3], tcp_offset[:3, 3])
+        frame = pin.Frame(
+            TCP_FRAME_NAME, parent.parentJoint, fid, placement, pin.FrameType.OP_FRAME
+        )
+        tcp_frame_id = int(model.addFrame(frame))
+        sources["tool"] = str(tool.get("source", "not stated"))
+
+    stiff_doc = doc.get("joint_stiffness_mnm_per_rad")
+    if not isinstance(stiff_doc, dict):
+        raise InputError(
+            f"{yaml_path}: missing 'joint_stiffness_mnm_per_rad' mapping "
+            "(e.g. cp: [...], dpp: [...])"
+        )
+    stiffness = {}
+    for key, val in stiff_doc.items():
+        if key == "source":
+            continue
+        arr = _as_vector(val, dof, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}")
+        if np.any(arr <= 0):
+            raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad.{key} must be > 0")
+        stiffness[str(key)] = arr * 1e6
+    if not stiffness:
+        raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad has no stiffness set")
+    sources["stiffness"] = str(stiff_doc.get("source", "not stated"))
+
+    vel, sources["joint_velocity"] = _values(
+        doc, "joint_velocity_deg_s", dof, np.pi / 180.0, yaml_path
+    )
+    acc, sources["joint_acceleration"] = _values(
+        doc, "joint_acceleration_deg_s2", dof, np.pi / 180.0, yaml_path
+    )
+
+    q_lower = np.asarray(model.lowerPositionLimit, dtype=float).copy()
+    q_upper = np.asarray(model.upperPositionLimit, dtype=float).copy()
+    if np.any(~np.isfinite(q_lower)) or np.any(~np.isfinite(q_upper)) or np.any(q_lower >= q_upper):
+        raise InputError(f"{urdf_path}: every joint needs a finite <limit lower upper>")
+
+    names = tuple(model.names[i] for i in range(1, model.njoints))
+    return RobotModel(
+        name=str(doc.get("name", directory.name)),
+        model=model,
+        tcp_frame_id=tcp_frame_id,
+        q_lower=q_lower,
+        q_upper=q_upper,
+        joint_velocity_max=vel,
+        joint_acceleration_max=acc,
+        stiffness=stiffness,
+        tcp_offset=tcp_offset,
+        sources=sources,
+        joint_names=names,
+    )
+
+
+# --------------------------------------------------------------------------- kinematics
+
+
+def _as_configs(robot: RobotModel, q: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
+    q = np.asarray(q, dtype=float)
+    if q.shape[-1:] != (robot.dof,):
+        raise InputError(f"joint configuration must have {robot.dof} values, got shape {q.shape}")
+    lead = q.shape[:-1]
+    return np.ascontiguousarray(q.reshape(-1, robot.dof)), lead
+
+
+def forward_kinematics(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """TCP poses (..., 4, 4) in the base frame [m] for configurations ``q`` (..., dof) [rad]."""
+    qs, lead = _as_configs(robot, q)
+    model, data, fid = robot.model, robot.model.createData(), robot.tcp_frame_id
+    out = np.empty((qs.shape[0], 4, 4))
+    for i, qi in enumerate(qs):
+        pin.forwardKinematics(model, data, qi)
+        out[i] = pin.updateFramePlacement(model, data, fid).homogeneous
+    return out.reshape(lead + (4, 4))
+
+
+def tcp_jacobians(robot: RobotModel, q: np.ndarray) -> np.ndarray:
+    """TCP Jacobians (..., 6, dof) in the base-aligned TCP frame (LOCAL_WORLD_ALIGNED).
+
+    Rows are ``[v; w]``: linear velocity of the TCP point and angular velocity, both in base
+    axes, so a base-frame wrench ``[f; m]`` at the TCP maps to joint torques ``J^T [f; m]``.
+    """
+    qs, lead = _as_configs(robot, q)
+    model, data, fid = robot.model, robot.model.createData(), robot.tcp_frame_id
+    out = np.empty((qs.shape[0], 6, robot.dof))
+    for i, qi in enumerate(qs):
+        out[i] = pin.computeFrameJacobian(model, data, qi, fid, pin.LOCAL_WORLD_ALIGNED)
+    return out.reshape(lead + (6, robot.dof))
+
+
+def jacobian_condition_number(jacobians: np.ndarray, length_scale: float = 1.0) -> np.ndarray:
+    """Condition number sigma_max / sigma_min of Jacobians (..., 6, dof).
+
+    The angular rows are multiplied by ``length_scale`` [m] so that both halves have units of
+    length (thesis 3.4: K_c is negligible far from singularity, i.e. small condition number).
+    """
+    j = np.array(jacobians, dtype=float, copy=True)
+    j[..., 3:, :] *= length_scale
+    s = np.linalg.svd(j, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
