@@ -1,0 +1,135 @@
+"""The ``constant`` timing law: the nominal feed everywhere (the thesis baseline).
+
+The tool is brought from ``v_start`` to the nominal feed and back to ``v_end`` by C2 ramps
+inside the tangential acceleration and jerk limits: either the quintic of Eq. 3.21-3.22 with
+zero end accelerations (default) or a jerk-limited S-curve. The feed bound ``v_max`` is
+ignored on purpose (the thesis ran at the nominal feed and measured the deflection it gave);
+the law measures how far it exceeds the bound and says so in ``notes``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.schedule.problem import ScheduleProblem
+from feedopt.schedule.quintic import (
+    QuinticPieces,
+    fit_length,
+    ppoly_from_jerk_phases,
+    quintic_ramp_duration,
+    scurve_distance,
+    scurve_times,
+)
+from feedopt.schedule.trajectory import Trajectory
+
+
+def _ramp_lengths(v0: float, v: float, v1: float, problem: ScheduleProblem, ramp: str):
+    if ramp == "quintic":
+        t_up = float(quintic_ramp_duration(v0, v, problem.accel_max, problem.jerk_max))
+        t_dn = float(quintic_ramp_duration(v, v1, problem.accel_max, problem.jerk_max))
+        return 0.5 * (v0 + v) * t_up, 0.5 * (v + v1) * t_dn
+    return (
+        scurve_distance(v0, v, problem.accel_max, problem.jerk_max),
+        scurve_distance(v, v1, problem.accel_max, problem.jerk_max),
+    )
+
+
+def plan_constant(problem: ScheduleProblem, *, ramp: str = "quintic") -> Trajectory:
+    """Nominal feed with C2 start/stop ramps.
+
+    Parameters
+    ----------
+    problem : ScheduleProblem
+        Uses ``nominal_feed``, ``v_start``, ``v_end``, ``accel_max``, ``jerk_max``, ``length``.
+    ramp : {"quintic", "jerk"}
+        ``quintic``: Eq. 3.22 with zero end accelerations and the shortest duration meeting
+        the limits (smoothstep velocity). ``jerk``: bang-zero-bang jerk S-curve (needs finite
+        ``accel_max`` and ``jerk_max``).
+
+    If the path is too short to reach the nominal feed, the cruise feed is lowered until the
+    two ramps fit (said in ``notes``).
+    """
+    if ramp not in ("quintic", "jerk"):
+        raise InputError(f"constant law: ramp must be 'quintic' or 'jerk', got {ramp!r}")
+    limited = np.isfinite(problem.accel_max) or np.isfinite(problem.jerk_max)
+    if ramp == "jerk" and not (np.isfinite(problem.accel_max) and np.isfinite(problem.jerk_max)):
+        raise InputError("constant law: ramp='jerk' needs finite accel_max and jerk_max")
+    no_ramp = problem.v_start == problem.nominal_feed == problem.v_end
+    if not limited and not no_ramp:
+        raise InputError("constant law: ramps need a finite accel_max or jerk_max")
+    if problem.nominal_feed <= 0:
+        raise InputError(f"constant law: nominal_feed must be > 0, got {problem.nominal_feed}")
+    v0, v1, L = problem.v_start, problem.v_end, problem.length
+    notes: list[str] = []
+
+    v = problem.nominal_feed
+    if sum(_ramp_lengths(v0, v, v1, problem, ramp)) > L:
+        # Lower the cruise feed until both ramps fit (ramp length grows with the feed).
+        lo, hi = max(v0, v1), v
+        if sum(_ramp_lengths(v0, lo, v1, problem, ramp)) > L:
+            raise InputError(
+                f"constant law: the path ({L * 1e3:.3f} mm) is too short to change the feed "
+                f"from v_start={v0 * 1e3:.4g} to v_end={v1 * 1e3:.4g} mm/s within the limits"
+            )
+        for _ in range(100):
+            mid = 0.5 * (lo + hi)
+            if sum(_ramp_lengths(v0, mid, v1, problem, ramp)) > L:
+                hi = mid
+            else:
+                lo = mid
+        notes.append(
+            f"path too short to reach the nominal feed {v * 1e3:.4g} mm/s: cruise feed "
+            f"lowered to {lo * 1e3:.4g} mm/s"
+        )
+        v = lo
+    h_up, h_dn = _ramp_lengths(v0, v, v1, problem, ramp)
+    cruise = max(L - h_up - h_dn, 0.0)
+    if cruise <= 1e-9 * L:  # no cruise left: drop it (fit_length absorbs the rest)
+        cruise = 0.0
+
+    if ramp == "quintic":
+        t_up = float(quintic_ramp_duration(v0, v, problem.accel_max, problem.jerk_max))
+        t_dn = float(quintic_ramp_duration(v, v1, problem.accel_max, problem.jerk_max))
+        h = np.array([h_up, cruise, h_dn])
+        T = np.array([t_up, cruise / v, t_dn])
+        vs = np.array([v0, v, v])
+        vf = np.array([v, v, v1])
+        keep = h > 0
+        s0 = np.concatenate([[0.0], np.cumsum(h)[:-1]])
+        zeros = np.zeros(int(keep.sum()))
+        pieces = QuinticPieces(
+            s0=s0[keep], h=h[keep], v0=vs[keep], vf=vf[keep], a0=zeros, af=zeros, T=T[keep]
+        )
+        pp = pieces.ppoly()
+    else:
+        A, J = problem.accel_max, problem.jerk_max
+        tj1, ta1 = scurve_times(v - v0, A, J)
+        tj2, ta2 = scurve_times(v1 - v, A, J)
+        g1 = 1.0 if v >= v0 else -1.0
+        g2 = 1.0 if v1 >= v else -1.0
+        durations = [tj1, ta1, tj1, cruise / v, tj2, ta2, tj2]
+        jerks = [g1 * J, 0.0, -g1 * J, 0.0, g2 * J, 0.0, -g2 * J]
+        pp = ppoly_from_jerk_phases(np.array(durations), np.array(jerks), v0=v0)
+
+    pp = fit_length(pp, problem.length)
+    traj = Trajectory(law="constant", timing=pp, continuity=2, notes=tuple(notes))
+    # feed on the samples: exactly v while cruising, the exact inverse of s(t) on the ramps
+    feed = np.full(problem.n, v)
+    ramps = (problem.s < h_up) | (problem.s > problem.length - h_dn)
+    feed[ramps] = traj.feed_at(problem.s[ramps])
+    ratio = feed / problem.v_max
+    worst = int(np.argmax(ratio))
+    stats = {
+        "cruise_feed_mm_s": v * 1e3,
+        "ramp": ramp,
+        "ramp_lengths_mm": (h_up * 1e3, h_dn * 1e3),
+        "max_feed_ratio": float(ratio[worst]),
+    }
+    if ratio[worst] > 1.0 + 1e-9:
+        notes.append(
+            f"ignores the feed bound by design: the feed reaches {ratio[worst]:.4f} x v_max "
+            f"(at s = {problem.s[worst] * 1e3:.3f} mm, sample {worst}); the deflection limit "
+            f"is violated there"
+        )
+    return Trajectory(law="constant", timing=pp, continuity=2, notes=tuple(notes), stats=stats)
