@@ -19,12 +19,16 @@ LAW_MODULES = {
 def plan_law(name: str, problem: ScheduleProblem, context: dict | None = None) -> Trajectory:
     """Plan ``problem`` with the law ``name``.
 
-    ``context`` carries results of laws run before (``topp_duration``), used to report the
-    convex law's optimality gap to toppra.
+    ``context`` carries results of laws run before: with ``context["topp"]`` (a topp
+    Trajectory) the convex law reports its optimality gap to it without re-running toppra;
+    without it, convex runs toppra itself for the gap (outside its own planning time).
     """
     module = importlib.import_module(LAW_MODULES[name])
-    trajectory: Trajectory = getattr(module, f"plan_{name}")(problem)
-    context = context or {}
-    if name == "convex" and "topp_duration" in context:
-        trajectory.stats["gap_to_topp"] = trajectory.duration / context["topp_duration"] - 1.0
+    plan = getattr(module, f"plan_{name}")
+    context = {} if context is None else context
+    if name == "convex":
+        return plan(problem, topp=context.get("topp"))
+    trajectory: Trajectory = plan(problem)
+    if name == "topp":
+        context["topp"] = trajectory
     return trajectory
