@@ -1,0 +1,156 @@
+"""``feedopt forces``: milling forces over one cutter revolution (thesis Algorithm 1, Fig. 3.11)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.process.coefficients import load_coefficients
+from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
+from feedopt.process.forces import feed_per_tooth, milling_forces
+from feedopt.process.tool import load_tool
+
+HEADER = "angle_deg,fx_n,fy_n,fz_n,f_n,torque_nm,power_w"
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "forces",
+        help="simulate milling forces, torque and power over one cutter revolution",
+        description=(
+            "Static mechanistic milling force model (thesis Algorithm 1, with axial force). "
+            "Forces on the tool in the force-model frame: x feed, y normal, z tool axis. "
+            "f_n is the resultant in the x-y plane, as in Algorithm 1; torque is D/2 Ft, "
+            "power is torque times spindle angular speed."
+        ),
+    )
+    p.add_argument("--tool", required=True, metavar="YAML", help="cutter file (scenarios/tools)")
+    p.add_argument(
+        "--coeffs",
+        required=True,
+        metavar="YAML",
+        help="cutting coefficients file (feedopt calibrate --out, scenarios/materials)",
+    )
+    p.add_argument("--rpm", type=float, required=True, help="spindle speed [rpm]")
+    p.add_argument("--feed-mm-s", type=float, required=True, help="feed rate [mm/s]")
+    p.add_argument("--axial-depth-mm", type=float, required=True, help="axial depth a [mm]")
+    p.add_argument(
+        "--radial-depth-mm",
+        type=float,
+        help="radial depth a_e [mm] (default: the tool diameter, i.e. a slot)",
+    )
+    p.add_argument("--milling", default="down", help="up or down (default: down)")
+    p.add_argument("--step-deg", type=float, default=1.0, help="angular step [deg] (default 1)")
+    p.add_argument("--axial-slices", type=int, default=20, help="axial slices (default 20)")
+    p.add_argument(
+        "--extrapolate",
+        action="store_true",
+        help="allow a spindle speed outside the calibrated ones (holds the nearest speed)",
+    )
+    p.add_argument("--out", metavar="CSV", help="write " + HEADER + " here")
+    p.add_argument("--plot", metavar="PNG", help="plot Fx, Fy, Fz, F over the revolution here")
+    p.set_defaults(func=run)
+
+
+def _positive(value: float, option: str, unit: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{option} must be > 0 {unit}, got {value!r}")
+    return value
+
+
+def _check_out(name: str | None, option: str) -> None:
+    if name and not Path(name).resolve().parent.is_dir():
+        raise InputError(f"{option}: directory {Path(name).resolve().parent} does not exist")
+
+
+def run(args: argparse.Namespace) -> int:
+    tool = load_tool(args.tool)
+    table = load_coefficients(args.coeffs)
+    rpm = _positive(args.rpm, "--rpm", "rpm")
+    feed = _positive(args.feed_mm_s, "--feed-mm-s", "mm/s") * 1e-3
+    a = _positive(args.axial_depth_mm, "--axial-depth-mm", "mm") * 1e-3
+    if a > tool.flute_length * (1 + 1e-12):
+        raise InputError(
+            f"--axial-depth-mm {args.axial_depth_mm:g} exceeds the flute length "
+            f"{tool.flute_length * 1e3:g} mm of tool {tool.name!r}"
+        )
+    if args.radial_depth_mm is None:
+        ae = tool.diameter
+    else:
+        ae = _positive(args.radial_depth_mm, "--radial-depth-mm", "mm") * 1e-3
+        if ae > tool.diameter * (1 + 1e-12):
+            raise InputError(
+                f"--radial-depth-mm {args.radial_depth_mm:g} exceeds the tool diameter "
+                f"{tool.diameter * 1e3:g} mm (use the diameter for a slot)"
+            )
+    if args.milling not in MILLING_MODES:
+        raise InputError(f"--milling must be 'up' or 'down', got {args.milling!r}")
+    step = args.step_deg
+    if not (math.isfinite(step) and 0 < step <= 90):
+        raise InputError(f"--step-deg must be in (0, 90] deg, got {step!r}")
+    if args.axial_slices < 1:
+        raise InputError(f"--axial-slices must be >= 1, got {args.axial_slices}")
+    _check_out(args.out, "--out")
+    _check_out(args.plot, "--plot")
+    coeffs = table.at(rpm, extrapolate=args.extrapolate)
+
+    c = feed_per_tooth(feed, rpm, tool.teeth)
+    eng = peripheral_engagement(np.array([ae]), tool.diameter, a, args.milling)
+    count = max(1, int(round(360.0 / step)))
+    angles = np.arange(count) * (2 * math.pi / count)
+    split = milling_forces(tool, coeffs, eng, angles, axial_slices=args.axial_slices)
+    f = split.forces(c)[0]
+    torque = split.torque(c)[0]
+    power = split.power(c, rpm)[0]
+    fxy = np.hypot(f[:, 0], f[:, 1])
+
+    print(
+        f"tool {tool.name}: D {tool.diameter * 1e3:g} mm, {tool.teeth} teeth, helix "
+        f"{math.degrees(tool.helix):g} deg"
+    )
+    print(
+        f"{rpm:g} rpm, feed {feed * 1e3:g} mm/s -> c = {c * 1e3:.5f} mm/tooth; a = {a * 1e3:g} mm, "
+        f"a_e = {ae * 1e3:g} mm, {args.milling} milling: entry {math.degrees(eng.entry[0]):.2f} "
+        f"deg, exit {math.degrees(eng.exit[0]):.2f} deg"
+    )
+    mean = f.mean(axis=0)
+    print(f"mean force  Fx {mean[0]:9.2f} N  Fy {mean[1]:9.2f} N  Fz {mean[2]:9.2f} N")
+    print(
+        f"peak        |Fxy| {fxy.max():8.2f} N  |F| {np.linalg.norm(f, axis=1).max():8.2f} N  "
+        f"torque {torque.max():.3f} N m  power {power.max():.1f} W"
+    )
+    if args.out:
+        data = np.column_stack([np.degrees(angles), f, fxy, torque, power])
+        np.savetxt(args.out, data, delimiter=",", header=HEADER, comments="", fmt="%.6g")
+        print(f"wrote {args.out} ({count} angles)")
+    if args.plot:
+        _plot(args.plot, np.degrees(angles), f, fxy, args)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _plot(path: str, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for k, name in enumerate(("Fx (feed)", "Fy (normal)", "Fz (axial)")):
+        ax.plot(deg, f[:, k], label=name)
+    ax.plot(deg, fxy, "k", lw=1.5, label="F (x-y resultant)")
+    ax.set_xlabel("rotation angle of tooth 1 [deg]")
+    ax.set_ylabel("force on the tool [N]")
+    ax.set_title(
+        f"{args.milling} milling, {args.rpm:g} rpm, {args.feed_mm_s:g} mm/s, "
+        f"a = {args.axial_depth_mm:g} mm"
+    )
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,163 @@
+"""Cutter engagement per path sample: entry/exit angles and axial depth.
+
+Angles follow Altintas [39] (thesis Fig. 3.10): the immersion angle phi is measured clockwise
+from the +y (normal) axis of the force-model frame, the chip thickness is h = c sin(phi), and a
+tooth cuts while ``entry <= phi < exit`` with ``0 <= entry <= exit <= pi``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from feedopt.errors import InputError
+
+MILLING_MODES = ("up", "down")
+
+
+@dataclass(frozen=True)
+class Engagement:
+    """Engagement of the cutter at ``n`` path samples (arrays of shape ``(n,)``).
+
+    Attributes
+    ----------
+    entry : phi_st [rad]
+    exit : phi_ex [rad]; ``exit == entry`` means the tool is not cutting.
+    axial_depth : a [m]
+    """
+
+    entry: np.ndarray
+    exit: np.ndarray
+    axial_depth: np.ndarray
+
+    def __post_init__(self) -> None:
+        arrays = [np.asarray(getattr(self, k), dtype=float) for k in ("entry", "exit")]
+        depth = np.asarray(self.axial_depth, dtype=float)
+        if arrays[0].ndim != 1 or arrays[0].shape != arrays[1].shape:
+            raise InputError(
+                "engagement: entry and exit must be 1-D arrays of the same length, got "
+                f"shapes {arrays[0].shape} and {arrays[1].shape}"
+            )
+        depth = np.broadcast_to(depth, arrays[0].shape).copy() if depth.ndim == 0 else depth
+        if depth.shape != arrays[0].shape:
+            raise InputError(
+                f"engagement: axial_depth has shape {depth.shape}, expected {arrays[0].shape}"
+            )
+        object.__setattr__(self, "entry", arrays[0])
+        object.__setattr__(self, "exit", arrays[1])
+        object.__setattr__(self, "axial_depth", depth)
+        validate_engagement(self)
+
+    @property
+    def n(self) -> int:
+        """Number of path samples."""
+        return int(self.entry.size)
+
+
+def validate_engagement(eng: Engagement, flute_length: float | None = None) -> None:
+    """Raise InputError naming the first bad sample (angles out of [0, pi], depth <= 0, ...)."""
+    checks = [
+        (
+            ~np.isfinite(eng.entry) | (eng.entry < 0) | (eng.entry > np.pi),
+            "entry",
+            "rad",
+            "must be in [0, pi]",
+        ),
+        (
+            ~np.isfinite(eng.exit) | (eng.exit < eng.entry) | (eng.exit > np.pi),
+            "exit",
+            "rad",
+            "must be in [entry, pi]",
+        ),
+        (~np.isfinite(eng.axial_depth) | (eng.axial_depth <= 0), "axial_depth", "m", "must be > 0"),
+    ]
+    if flute_length is not None:
+        checks.append(
+            (
+                eng.axial_depth > flute_length * (1 + 1e-12),
+                "axial_depth",
+                "m",
+                f"exceeds the tool's flute length {flute_length * 1e3:g} mm",
+            )
+        )
+    for bad, name, unit, rule in checks:
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            value = getattr(eng, name)[i]
+            raise InputError(f"engagement.{name} at sample {i} is {value!r} {unit}: {rule}")
+
+
+def slot_engagement(n: int, axial_depth: float | np.ndarray) -> Engagement:
+    """Full immersion (slotting): phi_st = 0, phi_ex = pi at ``n`` samples."""
+    if int(n) != n or n < 0:
+        raise InputError(f"slot_engagement: sample count must be a whole number >= 0, got {n!r}")
+    n = int(n)
+    depth = np.broadcast_to(np.asarray(axial_depth, dtype=float), (n,)).copy()
+    return Engagement(np.zeros(n), np.full(n, np.pi), depth)
+
+
+def peripheral_engagement(
+    radial_depth: np.ndarray,
+    diameter: float,
+    axial_depth: float | np.ndarray,
+    milling: str,
+) -> Engagement:
+    """Peripheral (side) milling with radial depth of cut a_e per sample.
+
+    Up milling: phi_st = 0, phi_ex = arccos(1 - 2 a_e / D).
+    Down milling: phi_st = pi - arccos(1 - 2 a_e / D), phi_ex = pi (Altintas [39]).
+    ``a_e = D`` is a slot; ``a_e = 0`` is allowed and means no contact at that sample (the
+    chapter-4 ramp starts there).
+    """
+    if milling not in MILLING_MODES:
+        raise InputError(f"milling must be 'up' or 'down', got {milling!r}")
+    if not (np.isfinite(diameter) and diameter > 0):
+        raise InputError(f"tool diameter must be > 0, got {diameter!r} m")
+    ae = np.atleast_1d(np.asarray(radial_depth, dtype=float))
+    if ae.ndim != 1:
+        raise InputError(f"radial_depth must be a 1-D array, got shape {ae.shape}")
+    bad = ~np.isfinite(ae) | (ae < 0) | (ae > diameter * (1 + 1e-12))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"radial_depth at sample {i} is {ae[i] * 1e3:g} mm: must be in [0, D] = "
+            f"[0, {diameter * 1e3:g}] mm"
+        )
+    sweep = np.arccos(np.clip(1.0 - 2.0 * ae / diameter, -1.0, 1.0))
+    depth = np.broadcast_to(np.asarray(axial_depth, dtype=float), ae.shape).copy()
+    if milling == "up":
+        return Engagement(np.zeros_like(sweep), sweep, depth)
+    return Engagement(np.pi - sweep, np.full_like(sweep, np.pi), depth)
+
+
+def radial_depth_profile(s: np.ndarray, table_s: np.ndarray, table_depth: np.ndarray) -> np.ndarray:
+    """Radial depth at arc lengths ``s`` by linear interpolation of a table.
+
+    Chapter 4 of the thesis ramps a_e from 0 to 9.525 mm over 203.2 mm:
+    ``radial_depth_profile(s, [0, 0.2032], [0, 0.009525])``. ``s`` outside the table (beyond
+    a 1 um rounding tolerance) is refused rather than silently clamped.
+    """
+    s = np.asarray(s, dtype=float)
+    ts = np.asarray(table_s, dtype=float).reshape(-1)
+    td = np.asarray(table_depth, dtype=float).reshape(-1)
+    if ts.size < 1 or ts.size != td.size:
+        raise InputError(
+            f"radial depth table: s and depth need the same non-zero length, got {ts.size} "
+            f"and {td.size}"
+        )
+    if np.any(~np.isfinite(ts)) or np.any(np.diff(ts) <= 0):
+        raise InputError("radial depth table: s must be finite and strictly increasing")
+    bad = ~np.isfinite(td) | (td < 0)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(f"radial depth table: depth[{i}] is {td[i]!r} m, must be >= 0")
+    tol = 1e-6
+    out = (s < ts[0] - tol) | (s > ts[-1] + tol) | ~np.isfinite(s)
+    if np.any(out):
+        i = int(np.argmax(out.reshape(-1)))
+        raise InputError(
+            f"radial depth profile: s = {s.reshape(-1)[i] * 1e3:g} mm (sample {i}) is outside "
+            f"the table's {ts[0] * 1e3:g}..{ts[-1] * 1e3:g} mm"
+        )
+    return np.interp(s, ts, td)

@@ -1,0 +1,87 @@
+"""Cutter geometry (thesis Table A.1) and its YAML reader."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from feedopt.errors import InputError
+from feedopt.process._io import number, read_yaml_mapping
+
+
+@dataclass(frozen=True)
+class Tool:
+    """An end mill, SI units.
+
+    Attributes
+    ----------
+    name : str
+    diameter : float
+        Mill diameter D [m].
+    teeth : int
+        Number of flutes N.
+    helix : float
+        Helix angle beta [rad] (0 = straight teeth).
+    flute_length : float
+        Length of cut [m]; the largest usable axial depth.
+    """
+
+    name: str
+    diameter: float
+    teeth: int
+    helix: float
+    flute_length: float
+
+    def __post_init__(self) -> None:
+        validate_tool(self)
+
+    @property
+    def pitch(self) -> float:
+        """Tooth pitch angle 2 pi / N [rad]."""
+        return 2.0 * math.pi / self.teeth
+
+
+def validate_tool(tool: Tool, where: str = "tool") -> None:
+    """Raise InputError if a tool field is out of its physical range."""
+    if not (isinstance(tool.teeth, int) and not isinstance(tool.teeth, bool)) or tool.teeth < 1:
+        raise InputError(f"{where}.teeth must be a whole number >= 1, got {tool.teeth!r}")
+    if not (math.isfinite(tool.diameter) and tool.diameter > 0):
+        raise InputError(f"{where}.diameter must be > 0, got {tool.diameter!r} m")
+    if not (math.isfinite(tool.helix) and 0.0 <= tool.helix < math.pi / 2):
+        raise InputError(
+            f"{where}.helix must be in [0, 90) deg, got {math.degrees(tool.helix)!r} deg"
+        )
+    if not (math.isfinite(tool.flute_length) and tool.flute_length > 0):
+        raise InputError(f"{where}.flute_length must be > 0, got {tool.flute_length!r} m")
+
+
+def load_tool(path: str | Path) -> Tool:
+    """Read a cutter YAML file.
+
+    Fields: ``name``, ``diameter_mm``, ``teeth``, ``helix_deg``, ``flute_length_mm``
+    (``source:`` and other keys are ignored).
+    """
+    data = read_yaml_mapping(path, "tool")
+    where = f"tool file {str(path)!r}"
+    teeth = data.get("teeth")
+    if teeth is None:
+        raise InputError(f"{where}: missing field 'teeth'")
+    if isinstance(teeth, bool) or not isinstance(teeth, int) or teeth < 1:
+        raise InputError(f"{where}.teeth: expected a whole number >= 1, got {teeth!r}")
+    diameter_mm = number(data, "diameter_mm", where)
+    helix_deg = number(data, "helix_deg", where)
+    flute_mm = number(data, "flute_length_mm", where)
+    if diameter_mm <= 0:
+        raise InputError(f"{where}.diameter_mm: must be > 0, got {diameter_mm!r}")
+    if not 0 <= helix_deg < 90:
+        raise InputError(f"{where}.helix_deg: must be in [0, 90), got {helix_deg!r}")
+    if flute_mm <= 0:
+        raise InputError(f"{where}.flute_length_mm: must be > 0, got {flute_mm!r}")
+    return Tool(
+        name=str(data.get("name", Path(path).stem)),
+        diameter=diameter_mm * 1e-3,
+        teeth=teeth,
+        helix=math.radians(helix_deg),
+        flute_length=flute_mm * 1e-3,
+    )
