@@ -1,0 +1,109 @@
+"""Bad input: clear InputError messages (CLI exit code 2 is tested in test_cli)."""
+
+import numpy as np
+import pytest
+
+from feedopt.errors import InputError
+from feedopt.geometry import waves
+from feedopt.geometry.path import build_lipb_path
+from feedopt.geometry.waypoints import read_waypoints_csv
+
+
+def test_fewer_than_two_distinct_points():
+    with pytest.raises(InputError, match="at least two"):
+        build_lipb_path(np.zeros((1, 3)), "circle", 0.01)
+    with pytest.raises(InputError, match="at least two distinct"):
+        build_lipb_path(np.zeros((3, 3)), "circle", 0.01, drop_repeated=True)
+
+
+def test_repeated_points_refused_or_dropped():
+    w = waves.triangle_wave()
+    wr = np.insert(w, [2, 4], w[[1, 3]], axis=0)  # repeats at new indices 2 and 5
+    with pytest.raises(InputError, match=r"indices 2, 5"):
+        build_lipb_path(wr, "bezier5", 0.01)
+    a = build_lipb_path(wr, "bezier5", 0.01, drop_repeated=True)
+    b = build_lipb_path(w, "bezier5", 0.01)
+    assert a.length == pytest.approx(b.length, rel=1e-15)
+    # corner indices refer to the caller's array
+    assert [g.corner_index for g in a.segments if g.kind != "line"] == [1, 3, 4, 6, 7]
+
+
+def test_collinear_corner_gets_no_blend():
+    w = np.array([[0, 0, 0], [0.05, 0, 0], [0.1, 0, 0], [0.1, 0.05, 0]])
+    path = build_lipb_path(w, "varying_radius", 0.01)
+    assert path.segment_kind == ("line", "line", "varying_radius", "line")
+    assert [g.corner_index for g in path.segments] == [-1, -1, 2, -1]
+
+
+def test_reversal_refused_with_index():
+    w = np.array([[0, 0, 0], [0.05, 0, 0], [0.1, 0, 0], [0.02, 0, 0]])
+    for kind in ("circle", "bezier4", "none"):
+        with pytest.raises(InputError, match=r"waypoint 2 .*reverses"):
+            build_lipb_path(w, kind, 0.001)
+
+
+@pytest.mark.parametrize("kind", ["circle", "bezier4", "bezier5", "varying_radius"])
+def test_blend_too_large_names_corner_and_largest_fit(kind):
+    w = waves.triangle_wave()
+    w[3, 0] -= 0.03  # make the corner at waypoint 3 tighter
+    with pytest.raises(InputError) as err:
+        build_lipb_path(w, kind, 0.05)
+    msg = str(err.value)
+    assert "waypoint 1" in msg or "waypoint 2" in msg or "waypoint 3" in msg
+    best = float(msg.rsplit("fits all corners is ", 1)[1].split(" mm")[0]) * 1e-3
+    build_lipb_path(w, kind, best * (1 - 1e-6))  # the advertised size fits
+    with pytest.raises(InputError, match="does not fit"):
+        build_lipb_path(w, kind, best * 1.001)
+
+
+def test_blend_fit_uses_half_of_each_line_independently():
+    # corner turning 90 deg: circle tangent distance = r; lines 40 and 100 mm long
+    w = np.array([[0, 0, 0], [0.04, 0, 0], [0.04, 0.1, 0]])
+    build_lipb_path(w, "circle", 0.02)
+    with pytest.raises(InputError, match=r"largest radius that fits there is 20 mm"):
+        build_lipb_path(w, "circle", 0.0201)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite(bad):
+    w = waves.triangle_wave()
+    w[4, 1] = bad
+    with pytest.raises(InputError, match="waypoint 4 is not finite"):
+        build_lipb_path(w, "circle", 0.01)
+
+
+def test_bad_blend_and_size():
+    w = waves.triangle_wave()
+    with pytest.raises(InputError, match="unknown blend"):
+        build_lipb_path(w, "spline", 0.01)
+    with pytest.raises(InputError, match="positive"):
+        build_lipb_path(w, "circle", 0.0)
+    with pytest.raises(InputError, match="shape"):
+        build_lipb_path(np.zeros((4, 4)), "circle", 0.01)
+
+
+def test_csv_reader(tmp_path):
+    f = tmp_path / "w.csv"
+    f.write_text("# comment\nz_mm,x_mm,y_mm,note\n1,0,0,a\n\n2,10,5,b\n")
+    np.testing.assert_allclose(read_waypoints_csv(f), [[0, 0, 1e-3], [0.01, 0.005, 2e-3]])
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("x,y,z\n0,0,0\n1,1,1\n", "lacks column"),
+    ("x_mm,y_mm\n0,0\n1,1\n", "z_mm"),
+    ("x_mm,y_mm,z_mm\n0,0,0\n1,abc,1\n", r"line 3, column y_mm: 'abc'"),
+    ("x_mm,y_mm,z_mm\n0,0,0\n1,nan,1\n", "not finite"),
+    ("x_mm,y_mm,z_mm\n0,0,0\n1,1\n", "line 3"),
+    ("x_mm,y_mm,z_mm\n0,0,0\n", "at least two"),
+    ("", "empty"),
+])
+def test_csv_errors(tmp_path, text, match):
+    f = tmp_path / "w.csv"
+    f.write_text(text)
+    with pytest.raises(InputError, match=match):
+        read_waypoints_csv(f)
+
+
+def test_csv_missing_file(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        read_waypoints_csv(tmp_path / "nope.csv")
