@@ -42,7 +42,7 @@ from feedopt.schedule.deflection import DeflectionModel, feed_frames
 from feedopt.schedule.laws import plan_law
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
-from feedopt.verify import Verification, verify_trajectory
+from feedopt.verify import Verification, is_finite, verify_trajectory
 
 MM = 1e-3
 Progress = Callable[[str], None]
@@ -124,7 +124,9 @@ def engagement_of(scenario: Scenario, tool: Tool, s: np.ndarray) -> Engagement:
         return slot_engagement(s.size, depth)
     if cut.radial_depth_profile is not None:
         prof = cut.radial_depth_profile
-        radial = radial_depth_profile(s, np.asarray(prof.s_mm) * MM, np.asarray(prof.depth_mm) * MM)
+        table_s = (np.asarray(prof.s_mm) * MM if prof.s_mm is not None
+                   else np.asarray(prof.s_fraction) * s[-1])
+        radial = radial_depth_profile(s, table_s, np.asarray(prof.depth_mm) * MM)
     else:
         radial = np.full(s.size, cut.radial_depth_mm * MM)
     return peripheral_engagement(radial, tool.diameter, depth, cut.milling)
@@ -206,7 +208,7 @@ def prepare(
     )
     limit = scenario.deflection.limit_mm * MM
     feed = scenario.feed
-    max_feed = (feed.max_mm_s if feed.max_mm_s is not None else 3.0 * feed.nominal_mm_s) * MM
+    max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
     qd_max = robot.joint_velocity_max * limits.joint_velocity_scale
     qdd_max = robot.joint_acceleration_max * limits.joint_acceleration_scale
     dq_ds = q_of_s(samples.s, 1)
@@ -260,15 +262,13 @@ def plan_and_verify(
 ) -> dict[str, LawResult]:
     """Run each timing law and replay-verify its trajectory."""
     results: dict[str, LawResult] = {}
-    context: dict[str, float] = {}
+    context: dict = {}
     # topp first: convex reports its optimality gap to it.
     order = sorted(laws, key=lambda law: 0 if law == "topp" else 1)
     for law in order:
         t0 = time.perf_counter()
         traj = plan_law(law, prepared.problem, context)
         dt = time.perf_counter() - t0
-        if law == "topp":
-            context["topp_duration"] = traj.duration
         ver = verify_trajectory(traj, prepared.problem, prepared.model, prepared.limit)
         results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt)
         status = "verified" if ver.verified else "FAILED VERIFICATION"
@@ -406,6 +406,10 @@ def write_outputs(
     series = []
     for law, res in results.items():
         entry = law_summary(prepared, res)
+        if not is_finite(res.trajectory):
+            entry["exported"] = False
+            summary["laws"][law] = entry
+            continue
         motion, q, pose, deflection, interp_error, qd = _rsi_rows(prepared, res, cycle)
         entry["fk_vs_path_error_mm"] = interp_error / MM
         exported = res.verification.verified or export_unverified

@@ -80,17 +80,27 @@ class PathSection(_Strict):
 
 
 class DepthProfile(_Strict):
-    """Radial depth as a table over arc length (linear interpolation)."""
+    """Radial depth as a table over arc length (linear interpolation), given in mm of arc
+    length (``s_mm``) or as fractions of the path length (``s_fraction``, 0..1)."""
 
-    s_mm: Annotated[list[FiniteFloat], Field(min_length=2)]
-    depth_mm: Annotated[list[FiniteFloat], Field(min_length=2)]
+    s_mm: Annotated[list[FiniteFloat], Field(min_length=2)] | None = Field(
+        None, description="arc lengths of the table (mm)")
+    s_fraction: Annotated[list[FiniteFloat], Field(min_length=2)] | None = Field(
+        None, description="arc lengths of the table as fractions of the path length")
+    depth_mm: Annotated[list[FiniteFloat], Field(min_length=2)] = Field(
+        description="radial depth at each table point (mm)")
 
     @model_validator(mode="after")
     def _same_length(self) -> DepthProfile:
-        if len(self.s_mm) != len(self.depth_mm):
-            raise ValueError("s_mm and depth_mm must have the same number of values")
-        if any(b <= a for a, b in zip(self.s_mm, self.s_mm[1:], strict=False)):
-            raise ValueError("s_mm must be strictly increasing")
+        if (self.s_mm is None) == (self.s_fraction is None):
+            raise ValueError("give exactly one of s_mm and s_fraction")
+        s = self.s_mm if self.s_mm is not None else self.s_fraction
+        if len(s) != len(self.depth_mm):
+            raise ValueError("the arc-length and depth_mm lists must have the same length")
+        if any(b <= a for a, b in zip(s, s[1:], strict=False)):
+            raise ValueError("arc lengths must be strictly increasing")
+        if self.s_fraction is not None and (s[0] < 0 or s[-1] > 1):
+            raise ValueError("s_fraction values must lie in [0, 1]")
         return self
 
 
@@ -124,7 +134,8 @@ class CutSection(_Strict):
 class FeedSection(_Strict):
     nominal_mm_s: PositiveFloat = Field(description="nominal feed; the constant law runs at it")
     max_mm_s: PositiveFloat | None = Field(None, description="largest feed any law may use "
-                                           "(default: 3 x nominal)")
+                                           "(default: the nominal feed, so the deflection "
+                                           "limit only lowers it, as in the thesis)")
     start_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the start")
     end_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the end")
 

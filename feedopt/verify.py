@@ -61,6 +61,8 @@ def verify_trajectory(
 ) -> Verification:
     """Replay ``trajectory`` on the path samples of ``problem`` and check every constraint."""
     baseline = trajectory.law in BASELINE_LAWS
+    if not is_finite(trajectory):
+        return _non_finite(trajectory, problem, limit)
     timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline)
     feed = trajectory.feed_at(problem.s)
     deflection, _ = model.deflection(np.maximum(feed, 0.0))
@@ -89,4 +91,31 @@ def verify_trajectory(
         verified=not problems,
         problems=tuple(problems),
         warnings=tuple(warnings),
+    )
+
+
+def is_finite(trajectory: Trajectory, max_duration: float = 1e7) -> bool:
+    """True when s(t) has finite coefficients and a finite, sane duration."""
+    return bool(
+        np.all(np.isfinite(trajectory.timing.c))
+        and np.all(np.isfinite(trajectory.timing.x))
+        and 0 < trajectory.duration < max_duration
+    )
+
+
+def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) -> Verification:
+    nan = np.full(problem.n, np.nan)
+    msg = (f"the {trajectory.law} law produced a non-finite trajectory (duration "
+           f"{trajectory.duration!r} s): nothing to replay")
+    timing = TimingCheck(
+        duration=trajectory.duration, lower_bound=problem.lower_bound_time(),
+        feed_ratio=np.nan, worst_sample=0, max_feed=np.nan, min_feed_interior=np.nan,
+        max_accel=np.nan, max_jerk=np.nan, velocity_jump=np.nan, accel_jump=np.nan, c2=False,
+        joint_velocity_ratio=np.nan, joint_acceleration_ratio=np.nan, start_feed=np.nan,
+        end_feed=np.nan, problems=(msg,),
+    )
+    return Verification(
+        law=trajectory.law, timing=timing, feed=nan, deflection=nan, limit=limit,
+        worst_sample=0, meets_limit=False, verified=False, problems=(msg,),
+        warnings=tuple(trajectory.notes),
     )

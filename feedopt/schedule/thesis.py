@@ -258,6 +258,8 @@ def plan_thesis(
     piece_of = np.clip(np.searchsorted(node_s, problem.s, side="right") - 1, 0, h.size - 1)
     bound_min = _interval_min(problem, node_s)
 
+    handoff_resets = [0]
+
     def build(feed: np.ndarray) -> QuinticPieces:
         v = feed[node_group]
         v0, vf = v[:-1], v[1:]
@@ -265,15 +267,26 @@ def plan_thesis(
                      h / np.maximum(np.minimum(v0, vf), 1e-300))
         a0 = np.zeros_like(h)
         af = np.zeros_like(h)
+        resets = 0
         for c in range(n_chain):
             idx = np.flatnonzero(chain == c)
             abar = (vf[idx] - v0[idx]) / T[idx]
-            sign = (-1.0) ** np.arange(idx.size)
-            # af[i] = 2 abar_i - af[i-1], af[-1] = 0 at the chain start  (thesis 4.3)
-            af_c = 2.0 * sign * np.cumsum(sign * abar)
-            af_c[-1] = 0.0
+            # Thesis 4.3: af[i] = 2 abar_i - a0[i], a0[i] = af[i-1], a0 = 0 at the chain
+            # start. The recursion alternates and is undamped: where it would exceed four times
+            # the mean accelerations of the adjacent pieces it is restarted with af = 0
+            # (still C2, since the next piece starts from the same value). One loop per key
+            # point, not per sample.
+            af_c = np.zeros(idx.size)
+            prev = 0.0
+            for j in range(idx.size - 1):
+                a = 2.0 * abar[j] - prev
+                if abs(a) > 4.0 * max(abs(abar[j]), abs(abar[j + 1])):
+                    a = 0.0
+                    resets += 1
+                af_c[j] = prev = a
             af[idx] = af_c
             a0[idx[1:]] = af_c[:-1]
+        handoff_resets[0] = resets
         return QuinticPieces(s0=node_s[:-1], h=h, v0=v0, vf=vf, a0=a0, af=af, T=T)
 
     def ratios(pieces: QuinticPieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -350,7 +363,14 @@ def plan_thesis(
             for k, st in enumerate(stretches) if st.flat
         ],
         "n_pieces": int(h.size),
+        "handoff_resets": int(handoff_resets[0]),
     }
+    if handoff_resets[0]:
+        notes.append(
+            f"section 4.3 acceleration hand-off restarted (af = 0) at {handoff_resets[0]} key "
+            "points where its undamped alternation exceeded four times the adjacent mean "
+            "accelerations"
+        )
     if np.isfinite(problem.jerk_max) and stats["max_jerk_m_s3"] > problem.jerk_max * (1 + 1e-6):
         notes.append(
             f"jerk reaches {stats['max_jerk_m_s3']:.4g} m/s^3 > jerk_max "

@@ -75,12 +75,13 @@ class Trajectory:
         return Motion(t=t, s=pp(t), sdot=d1(t), sddot=d2(t), sdddot=sdddot)
 
     def sample_uniform(self, dt: float) -> Motion:
-        """Evaluate at a uniform time step ``dt`` (the RSI cycle), always including the end."""
-        n = int(np.floor(self.duration / dt + 1e-9)) + 1
+        """Evaluate at the uniform times ``k dt`` (the RSI cycle) up to the first one at or
+        after the end; a last partial cycle holds the final state, so the grid stays uniform.
+        """
+        n = int(np.ceil(self.duration / dt - 1e-9)) + 1
         t = self.timing.x[0] + dt * np.arange(n)
-        if t[-1] < self.timing.x[-1] - 1e-12:
-            t = np.append(t, self.timing.x[-1])
-        return self.at(t)
+        m = self.at(t)
+        return Motion(t=t, s=m.s, sdot=m.sdot, sddot=m.sddot, sdddot=m.sdddot)
 
     def time_at(self, s: np.ndarray) -> np.ndarray:
         """Earliest time at which the arc length ``s`` [m] is reached (vectorised inverse).

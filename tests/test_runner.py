@@ -1,0 +1,138 @@
+"""End-to-end runs of the bundled scenarios (coarse sampling for speed) — issue 6."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from feedopt.cli import main
+from feedopt.export.rsi import read_rsi_csv
+from feedopt.robot.kuka import rotation_from_abc
+from feedopt.robot.model import forward_kinematics
+from feedopt.runner import run_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / "scenarios"
+quiet = lambda _msg: None  # noqa: E731
+
+
+@pytest.fixture(scope="module")
+def triangle(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "triangle"
+    return run_scenario(SCENARIOS / "triangle_slot.yaml", out_dir=out, spacing_mm=1.0,
+                        progress=quiet)
+
+
+@pytest.fixture(scope="module")
+def linear(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "linear"
+    return run_scenario(SCENARIOS / "linear_peripheral.yaml", out_dir=out, spacing_mm=1.0,
+                        progress=quiet)
+
+
+def _line_feeds(result, direction: int) -> np.ndarray:
+    """Feeds of the thesis law in the middle of lines going up (+1) or down (-1) in y."""
+    prepared = result.prepared
+    traj = result.laws["thesis"].trajectory
+    feeds = []
+    for a, b, kind in prepared.problem.segments():
+        if kind != "line" or b - a < 5e-3:
+            continue
+        mid = 0.5 * (a + b)
+        ty = prepared.path.evaluate(np.array([mid])).tangent[0, 1]
+        if np.sign(ty) == direction and abs(ty) > 0.5:
+            feeds.append(traj.feed_at(np.array([mid]))[0])
+    return np.array(feeds)
+
+
+def test_triangle_every_law_verified_and_exported(triangle) -> None:
+    summary = json.loads((triangle.out_dir / "summary.json").read_text())
+    assert set(summary["laws"]) == {"constant", "thesis", "topp", "convex", "jerk"}
+    for law, entry in summary["laws"].items():
+        assert entry["verified"], (law, entry["problems"])
+        assert (triangle.out_dir / f"{law}.csv").is_file()
+        if law != "constant":
+            assert entry["max_deflection_mm"] <= 0.29 * (1 + 1e-6)
+    assert (triangle.out_dir / "thesis.src").is_file()
+    assert (triangle.out_dir / "constant.src").is_file()
+    assert (triangle.out_dir / "report.html").is_file()
+    assert (triangle.out_dir / "report.md").is_file()
+
+
+def test_triangle_reproduces_thesis_qualitatively(triangle) -> None:
+    laws = triangle.summary["laws"]
+    # Constant 4.23 mm/s exceeds the 0.29 mm limit somewhere (thesis: about 0.4 mm).
+    assert laws["constant"]["max_deflection_mm"] > 0.29
+    # The thesis law runs faster on the down (-y) lines than on the up (+y) lines.
+    down, up = _line_feeds(triangle, -1), _line_feeds(triangle, +1)
+    assert down.size == 3 and up.size == 3
+    assert down.min() > up.max()
+    # Optimal laws beat the thesis law and stay above the lower bound T*.
+    t_star = triangle.prepared.problem.lower_bound_time()
+    for law in ("topp", "convex"):
+        assert t_star <= laws[law]["cycle_time_s"] < laws["thesis"]["cycle_time_s"]
+    assert laws["thesis"]["c2"] and laws["convex"]["c2"] and laws["jerk"]["c2"]
+
+
+def test_linear_peripheral_feed_decreases_along_the_cut(linear) -> None:
+    laws = linear.summary["laws"]
+    assert laws["constant"]["max_deflection_mm"] > 0.2
+    for law in ("thesis", "topp", "convex", "jerk"):
+        assert laws[law]["verified"], laws[law]["problems"]
+        feed = linear.laws[law].verification.feed
+        s = linear.prepared.problem.s
+        # Past the first quarter (where the max feed may bind) the feed falls with the depth.
+        q1, q3 = np.searchsorted(s, [0.25 * s[-1], 0.95 * s[-1]])
+        assert feed[q1] > feed[q3]
+
+
+def test_rsi_csv_pose_matches_fk_of_joints(triangle) -> None:
+    table = read_rsi_csv(triangle.out_dir / "convex.csv")
+    assert np.allclose(np.diff(table.t_s), 0.004, atol=1e-9) or np.diff(table.t_s)[-1] <= 0.004
+    pose = forward_kinematics(triangle.prepared.robot, np.deg2rad(table.q_deg))
+    xyz = np.column_stack([table.x_mm, table.y_mm, table.z_mm])
+    assert np.max(np.linalg.norm(pose[:, :3, 3] * 1e3 - xyz, axis=1)) < 1e-6
+    rot = rotation_from_abc(np.column_stack([table.a_deg, table.b_deg, table.c_deg]))
+    assert np.max(np.abs(rot - pose[:, :3, :3])) < 1e-9
+
+
+def test_square_slot_runs(tmp_path: Path) -> None:
+    out = tmp_path / "square"
+    code = main(["run", str(SCENARIOS / "square_slot.yaml"), "--out", str(out),
+                 "--spacing-mm", "1.0", "--laws", "thesis,jerk", "--no-report"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert all(e["verified"] for e in summary["laws"].values())
+
+
+def _scenario_copy(tmp_path: Path, name: str, **changes) -> Path:
+    """A bundled scenario copied to tmp_path with absolute file references and changes."""
+    data = yaml.safe_load((SCENARIOS / name).read_text())
+    data["robot"]["directory"] = str((SCENARIOS / data["robot"]["directory"]).resolve())
+    data["tool"] = str(SCENARIOS / data["tool"])
+    data["material"] = str(SCENARIOS / data["material"])
+    for dotted, value in changes.items():
+        section, key = dotted.split(".")
+        data[section][key] = value
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(data))
+    return p
+
+
+def test_bad_input_leaves_no_output(tmp_path: Path, capsys) -> None:
+    bad = _scenario_copy(tmp_path, "triangle_slot.yaml", **{"deflection.limit_mm": 0.001})
+    out = tmp_path / "never"
+    code = main(["run", str(bad), "--out", str(out), "--spacing-mm", "2"])
+    assert code == 2
+    assert "edge forces alone" in capsys.readouterr().err
+    assert not out.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["triangle_slot.yaml"]
+
+
+def test_unreachable_workpiece_is_bad_input(tmp_path: Path, capsys) -> None:
+    bad = _scenario_copy(tmp_path, "triangle_slot.yaml",
+                         **{"workpiece.position_mm": [5000.0, 0.0, 400.0]})
+    assert main(["run", str(bad), "--out", str(tmp_path / "o"), "--spacing-mm", "2"]) == 2
+    assert "sample" in capsys.readouterr().err
