@@ -320,6 +320,14 @@ def scenario_summary(prepared: Prepared) -> dict:
     }
 
 
+def _json_ready(value: object) -> bool:
+    try:
+        json.dumps(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
 def law_summary(prepared: Prepared, result: LawResult) -> dict:
     ver, timing = result.verification, result.verification.timing
     traj = result.trajectory
@@ -342,7 +350,7 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "problems": list(ver.problems),
         "notes": list(ver.warnings),
         "planning_time_s": result.planning_time,
-        "stats": {k: v for k, v in traj.stats.items() if isinstance(v, (int, float, str, bool))},
+        "stats": {k: v for k, v in traj.stats.items() if _json_ready(v)},
     }
 
 
