@@ -80,6 +80,7 @@ class LawResult:
     trajectory: Trajectory
     verification: Verification
     planning_time: float
+    verification_time: float = 0.0
 
 
 def workpiece_transform(position_mm: list[float], rpy_deg: list[float]) -> np.ndarray:
@@ -269,8 +270,10 @@ def plan_and_verify(
         t0 = time.perf_counter()
         traj = plan_law(law, prepared.problem, context)
         dt = time.perf_counter() - t0
+        t1 = time.perf_counter()
         ver = verify_trajectory(traj, prepared.problem, prepared.model, prepared.limit)
-        results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt)
+        results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt,
+                                 verification_time=time.perf_counter() - t1)
         status = "verified" if ver.verified else "FAILED VERIFICATION"
         progress(f"[5/5] {law}: {traj.duration:.2f} s cycle "
                  f"({traj.duration / prepared.problem.lower_bound_time():.4f} T*), max "
@@ -350,6 +353,7 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "problems": list(ver.problems),
         "notes": list(ver.warnings),
         "planning_time_s": result.planning_time,
+        "verification_time_s": result.verification_time,
         "stats": {k: v for k, v in traj.stats.items() if _json_ready(v)},
     }
 
