@@ -45,6 +45,8 @@ from feedopt.schedule.trajectory import Trajectory
 from feedopt.verify import Verification, is_finite, verify_trajectory
 
 MM = 1e-3
+# Largest number of path samples a run plans (memory: ~2 kB per sample across the stages).
+MAX_SAMPLES = 2_000_000
 Progress = Callable[[str], None]
 
 
@@ -112,6 +114,19 @@ def waypoints_of(scenario: Scenario, base_dir: Path) -> np.ndarray:
     return w
 
 
+def build_path(scenario: Scenario, base_dir: Path) -> ToolPath:
+    """The scenario's path; geometry errors are prefixed with the scenario section."""
+    p = scenario.path
+    try:
+        return build_lipb_path(waypoints_of(scenario, base_dir), p.blend, p.blend_size_mm * MM,
+                               drop_repeated=p.drop_repeated_waypoints)
+    except InputError as exc:
+        msg = str(exc).replace("or pass drop_repeated=True (CLI: --drop-repeated)",
+                               "or set path.drop_repeated_waypoints: true")
+        raise InputError(f"path ({p.generator}, blend {p.blend} {p.blend_size_mm:g} mm): "
+                         f"{msg}") from None
+
+
 def engagement_of(scenario: Scenario, tool: Tool, s: np.ndarray) -> Engagement:
     """Per-sample engagement from the cut section."""
     cut = scenario.cut
@@ -123,6 +138,15 @@ def engagement_of(scenario: Scenario, tool: Tool, s: np.ndarray) -> Engagement:
         )
     if cut.type == "slot":
         return slot_engagement(s.size, depth)
+    try:
+        return _peripheral(cut, tool, s, depth)
+    except InputError as exc:
+        field = ("cut.radial_depth_profile" if cut.radial_depth_profile is not None
+                 else "cut.radial_depth_mm")
+        raise InputError(f"{field}: {exc}") from None
+
+
+def _peripheral(cut, tool: Tool, s: np.ndarray, depth: float) -> Engagement:
     if cut.radial_depth_profile is not None:
         prof = cut.radial_depth_profile
         table_s = (np.asarray(prof.s_mm) * MM if prof.s_mm is not None
@@ -144,9 +168,14 @@ def prepare(
     spacing = (spacing_mm or scenario.path.spacing_mm) * MM
 
     t0 = time.perf_counter()
-    waypoints = waypoints_of(scenario, base_dir)
-    size = scenario.path.blend_size_mm * MM
-    path = build_lipb_path(waypoints, scenario.path.blend, size)
+    path = build_path(scenario, base_dir)
+    n_samples = path.length / spacing + 1
+    if n_samples > MAX_SAMPLES:
+        raise InputError(
+            f"path.spacing_mm = {spacing / MM:g} mm gives {n_samples:.3g} samples on the "
+            f"{path.length / MM:.1f} mm path; at most {MAX_SAMPLES:.0e} are planned (use "
+            f"a spacing of at least {path.length / MM / (MAX_SAMPLES - 1):.2g} mm)"
+        )
     samples = path.sample(spacing)
     times["geometry"] = time.perf_counter() - t0
     progress(f"[1/5] geometry: {len(path.segments)} segments, {path.length / MM:.2f} mm, "
@@ -274,7 +303,12 @@ def plan_and_verify(
         ver = verify_trajectory(traj, prepared.problem, prepared.model, prepared.limit)
         results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt,
                                  verification_time=time.perf_counter() - t1)
-        status = "verified" if ver.verified else "FAILED VERIFICATION"
+        if not ver.verified:
+            status = "FAILED VERIFICATION"
+        elif ver.exportable:
+            status = "verified, exportable"
+        else:
+            status = "verified, not exportable: " + "; ".join(ver.export_blockers)
         progress(f"[5/5] {law}: {traj.duration:.2f} s cycle "
                  f"({traj.duration / prepared.problem.lower_bound_time():.4f} T*), max "
                  f"deflection {ver.max_deflection / MM:.4f} mm ({ver.deflection_ratio:.4f} of "
@@ -358,22 +392,42 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
     }
 
 
-def _rsi_rows(prepared: Prepared, result: LawResult, cycle: float):
-    """Resample the timing law itself at the RSI cycle; pose from FK of interpolated q."""
+def _time_series(prepared: Prepared, result: LawResult, cycle: float):
+    """The timing law itself sampled at the RSI cycle, with joint velocities.
+
+    For a law that is only C1 (toppra) the jerk is the finite difference of the sampled
+    acceleration, i.e. what a controller stepping at this cycle would see, not the zero
+    inside the polynomial pieces.
+    """
+    motion = result.trajectory.sample_uniform(cycle)
+    jerk = motion.sdddot
+    if result.trajectory.continuity < 2:
+        jerk = np.gradient(motion.sddot, motion.t) if motion.t.size > 1 else motion.sdddot
+    s = np.clip(motion.s, 0.0, prepared.problem.length)
+    qd = prepared.q_of_s(s, 1) * motion.sdot[:, None]
+    return motion, jerk, qd
+
+
+def _rsi_rows(prepared: Prepared, motion):
+    """Joint values and pose at the RSI samples: q interpolated along s, pose = FK(q)."""
     from feedopt.robot.model import forward_kinematics
 
-    motion = result.trajectory.sample_uniform(cycle)
     q = prepared.q_of_s(motion.s)
     pose = forward_kinematics(prepared.robot, q)
-    ver = result.verification
-    deflection = np.interp(motion.s, prepared.problem.s, ver.deflection)
     # How far FK of the interpolated joints is from the exact path point (for the record).
     tw = workpiece_transform(prepared.scenario.workpiece.position_mm,
                              prepared.scenario.workpiece.rpy_deg)
     exact = prepared.path.evaluate(motion.s).position @ tw[:3, :3].T + tw[:3, 3]
     interp_error = float(np.max(np.linalg.norm(pose[:, :3, 3] - exact, axis=1)))
-    qd = prepared.q_of_s(motion.s, 1) * motion.sdot[:, None]
-    return motion, q, pose, deflection, interp_error, qd
+    return q, pose, interp_error
+
+
+def _monotone_within_path(result: LawResult, length: float) -> bool:
+    """s(t) stays in [0, L] (a reversing law cannot be resampled onto the path)."""
+    pp = result.trajectory.timing
+    t = (pp.x[:-1, None] + np.diff(pp.x)[:, None] * np.linspace(0, 1, 9)).ravel()
+    s = pp(t)
+    return bool(s.min() >= -1e-9 and s.max() <= length + 1e-9)
 
 
 def _krl_points(prepared: Prepared, result: LawResult):
@@ -418,26 +472,32 @@ def write_outputs(
     series = []
     for law, res in results.items():
         entry = law_summary(prepared, res)
-        if not is_finite(res.trajectory):
-            entry["exported"] = False
-            summary["laws"][law] = entry
+        ver = res.verification
+        entry["exportable"] = ver.exportable
+        entry["export_blockers"] = list(ver.export_blockers)
+        drawable = is_finite(res.trajectory) and _monotone_within_path(
+            res, prepared.problem.length)
+        exported = drawable and (ver.exportable or export_unverified)
+        entry["exported"] = exported
+        summary["laws"][law] = entry
+        if not drawable:
             continue
-        motion, q, pose, deflection, interp_error, qd = _rsi_rows(prepared, res, cycle)
-        entry["fk_vs_path_error_mm"] = interp_error / MM
-        exported = res.verification.verified or export_unverified
+        motion, jerk, qd = _time_series(prepared, res, cycle)
         if exported:
+            q, pose, interp_error = _rsi_rows(prepared, motion)
+            entry["fk_vs_path_error_mm"] = interp_error / MM
+            deflection = np.interp(motion.s, prepared.problem.s, ver.deflection)
             table = rsi_table_from_si(motion.t, pose[:, :3, 3], pose[:, :3, :3], q, motion.s,
-                                      motion.sdot, motion.sddot, motion.sdddot, deflection)
-            status = ("VERIFIED" if res.verification.verified
-                      else "NOT VERIFIED (exported on request)")
+                                      motion.sdot, motion.sddot, jerk, deflection)
+            status = ("VERIFIED" if ver.exportable
+                      else "NOT EXPORTABLE, written on request (--export-unverified): "
+                      + "; ".join(ver.export_blockers + ver.problems))
             write_rsi_csv(out_dir / f"{law}.csv", table, comments=[
                 f"feedopt {law} trajectory for scenario {sc.name}: {status}",
                 f"cycle time {res.trajectory.duration:.4f} s, max predicted deflection "
-                f"{res.verification.max_deflection / MM:.4f} mm (limit {sc.deflection.limit_mm} "
-                "mm)",
+                f"{ver.max_deflection / MM:.4f} mm (limit {sc.deflection.limit_mm} mm)",
                 "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
                 "deflection = predicted static deflection at the commanded feed",
-                *[f"verification problem: {p}" for p in res.verification.problems],
             ])
             entry["rsi_csv"] = f"{law}.csv"
             if law in ("thesis", "constant"):
@@ -445,19 +505,18 @@ def write_outputs(
                 write_krl_program(out_dir / f"{law}.src", None, pts, motions, vels, q0, comments=[
                     f"feedopt scenario {sc.name}, law {law}: key points of the path with the "
                     "law's segment feeds as $VEL.CP",
+                    *([] if ver.exportable else [f"NOT EXPORTABLE: {b}"
+                                                 for b in ver.export_blockers]),
                 ])
                 entry["krl_program"] = f"{law}.src"
-        entry["exported"] = exported
-        summary["laws"][law] = entry
         if report:
             from feedopt.report.data import law_series_from_si
 
             series.append(law_series_from_si(
-                law, prepared.problem.s, res.verification.feed, res.verification.deflection,
-                motion.t, motion.sdot, motion.sddot,
-                motion.sdddot if res.trajectory.continuity >= 2 else np.full_like(motion.t, np.nan),
-                qd, verified=res.verification.verified,
-                notes=list(res.verification.problems) + list(res.verification.warnings),
+                law, prepared.problem.s, ver.feed, ver.deflection, motion.t, motion.sdot,
+                motion.sddot, jerk, qd, verified=ver.verified,
+                notes=list(ver.problems) + [f"not exported: {b}" for b in ver.export_blockers]
+                + list(ver.warnings),
             ))
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if report:
@@ -517,7 +576,6 @@ def validate_scenario(scenario_path: str | Path) -> str:
     table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
     table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
-    path = build_lipb_path(waypoints_of(scenario, base_dir), scenario.path.blend,
-                           scenario.path.blend_size_mm * MM)
+    path = build_path(scenario, base_dir)
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
             f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}")

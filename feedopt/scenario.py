@@ -63,14 +63,18 @@ class PathSection(_Strict):
     height_mm: PositiveFloat = Field(76.2, description="wave height along y (mm)")
     waves: Annotated[int, Field(ge=1)] = Field(3, description="number of waves")
     start_mm: Vector3 = Field([0.0, 0.0, 0.0], description="line start (mm)")
-    end_mm: Vector3 = Field([203.2, 9.525, 0.0], description="line end (mm)")
+    end_mm: Vector3 = Field([203.2, -9.525, 0.0], description="line end (mm); the chapter-4 "
+                            "cut drifts to the right (-y) into the material (down milling)")
     file: str | None = Field(None, description="waypoint CSV for generator csv")
     z_mm: FiniteFloat = Field(0.0, description="height of generated waves in W (mm)")
     blend: Literal["varying_radius", "circle", "bezier4", "bezier5", "none"] = Field(
         "varying_radius", description="corner blend kind (thesis 3.3)")
     blend_size_mm: PositiveFloat = Field(12.7, description="blend radius (circle, "
                                          "varying_radius) or tolerance (bezier4/5) (mm)")
-    spacing_mm: PositiveFloat = Field(0.1, description="sample spacing along the path (mm)")
+    spacing_mm: Annotated[float, Field(ge=0.001, allow_inf_nan=False)] = Field(
+        0.1, description="sample spacing along the path (mm, >= 0.001)")
+    drop_repeated_waypoints: bool = Field(False, description="drop repeated consecutive "
+                                          "waypoints (and say so) instead of refusing them")
 
     @model_validator(mode="after")
     def _needs_file(self) -> PathSection:
@@ -114,7 +118,9 @@ class CutSection(_Strict):
                                                   "a_e for peripheral cuts (mm)")
     radial_depth_profile: DepthProfile | None = Field(None, description="radial depth vs arc "
                                                       "length for peripheral cuts")
-    milling: Literal["down", "up"] = Field("down", description="down (climb) or up milling")
+    milling: Literal["down", "up"] = Field("down", description="down (climb): the material "
+        "is on the right of the feed direction seen from the spindle (cutter turning clockwise "
+        "seen from above, Altintas' frame); up: on the left")
     spindle_rpm: PositiveFloat = Field(description="spindle speed (rev/min)")
     extrapolate_coefficients: bool = Field(False, description="allow cutting coefficients "
                                            "outside the calibrated speed range")
@@ -152,6 +158,8 @@ class DeflectionSection(_Strict):
     def _direction(self) -> DeflectionSection:
         if self.mode == "direction" and self.direction is None:
             raise ValueError("mode 'direction' needs 'direction' [x, y, z]")
+        if self.direction is not None and sum(x * x for x in self.direction) < 1e-24:
+            raise ValueError("direction must be a non-zero vector")
         return self
 
 
@@ -172,8 +180,9 @@ class ScheduleSection(_Strict):
         list(LAWS), min_length=1, description="timing laws to run")
     key_point_spacing_mm: Annotated[float, Field(ge=0)] = Field(
         0.0, description="chapter-4 key points every l along lines (0: chapter-3 law)")
-    angle_step_deg: Annotated[float, Field(gt=0, le=10)] = Field(
-        1.0, description="cutter angle step of the force model")
+    angle_step_deg: Annotated[float, Field(ge=0.01, le=10)] = Field(
+        1.0, description="cutter angle step of the force model (slice entry/exit angles are "
+        "always added)")
     axial_slices: Annotated[int, Field(ge=1, le=500)] = Field(20, description="axial slices")
 
 

@@ -6,6 +6,12 @@ revolution, rotated into the base frame and multiplied by the robot's compliance
 largest deflection must stay within the limit (1e-6 relative). The kinematic part
 (:func:`feedopt.schedule.checks.check_timing`) checks the feed bound, tangential
 acceleration and jerk, joint limits, boundary feeds and C2 continuity with numbers.
+
+Two verdicts come out. ``verified``: the law kept every promise it makes (the constant
+baseline does not promise the deflection limit; topp does not promise C2). ``exportable``:
+the trajectory meets what every exported trajectory must meet (deflection within the limit,
+C2, jerk within its limit); only exportable trajectories are written for the controller
+unless the user explicitly asks for the others.
 """
 
 from __future__ import annotations
@@ -42,6 +48,12 @@ class Verification:
     verified: bool
     problems: tuple[str, ...]
     warnings: tuple[str, ...]
+    export_blockers: tuple[str, ...] = ()
+
+    @property
+    def exportable(self) -> bool:
+        """Deflection within the limit, C2 and jerk-bounded, and verified."""
+        return self.verified and not self.export_blockers
 
     @property
     def max_deflection(self) -> float:
@@ -80,6 +92,17 @@ def verify_trajectory(
             warnings.append(msg + " (expected: this baseline ignores the limit)")
         else:
             problems.append(msg)
+    blockers = []
+    if not meets:
+        blockers.append(f"deflection reaches {deflection[worst] / limit:.4f} x the limit")
+    if not timing.c2:
+        blockers.append(
+            f"not C2: the acceleration jumps by up to {timing.accel_jump * 1e3:.4g} mm/s^2, "
+            "so the jerk is unbounded"
+        )
+    elif np.isfinite(problem.jerk_max) and timing.max_jerk > problem.jerk_max * (1 + rtol):
+        blockers.append(f"jerk {timing.max_jerk * 1e3:.4g} mm/s^3 exceeds the limit "
+                        f"{problem.jerk_max * 1e3:.4g} mm/s^3")
     return Verification(
         law=trajectory.law,
         timing=timing,
@@ -91,6 +114,7 @@ def verify_trajectory(
         verified=not problems,
         problems=tuple(problems),
         warnings=tuple(warnings),
+        export_blockers=tuple(blockers),
     )
 
 
@@ -117,5 +141,5 @@ def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) 
     return Verification(
         law=trajectory.law, timing=timing, feed=nan, deflection=nan, limit=limit,
         worst_sample=0, meets_limit=False, verified=False, problems=(msg,),
-        warnings=tuple(trajectory.notes),
+        warnings=tuple(trajectory.notes), export_blockers=(msg,),
     )

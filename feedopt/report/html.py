@@ -30,8 +30,10 @@ figcaption { font-size: 0.9em; color: #444; }
 _LEGEND = (
     "T: cycle time; T*: lower bound on the cycle time of the law's problem; "
     "T(constant): cycle time at the constant nominal feed; defl./limit: largest predicted "
-    "deflection over the limit (<= 1 meets it); verified: the replay of the trajectory "
-    "passed every check."
+    "deflection over the limit (<= 1 meets it); verified: the replay shows the law kept "
+    "every promise it makes (the constant baseline does not promise the limit, topp does not "
+    "promise C2); exported: the trajectory also meets the limit, is C2 and jerk-bounded, so "
+    "its RSI CSV was written."
 )
 
 

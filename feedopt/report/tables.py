@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 HEADERS: tuple[tuple[str, bool], ...] = (
     ("law", False),
     ("verified", False),
+    ("exported", False),
     ("T [s]", True),
     ("T* [s]", True),
     ("T/T*", True),
@@ -65,6 +66,7 @@ def comparison_rows(summary: Mapping) -> list[list[str]]:
             [
                 str(law),
                 _bool(r.get("verified")),
+                _DASH if r.get("exported") is None else _bool(r.get("exported"), no="no"),
                 _num(r.get("cycle_time_s")),
                 _num(r.get("lower_bound_s")),
                 _ratio(r.get("cycle_time_s"), r.get("lower_bound_s")),

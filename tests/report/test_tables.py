@@ -47,7 +47,7 @@ def test_several_runs_get_a_run_column():
     cells = _cells(table)
     assert cells[0][0] == "run" and len(cells) == 1 + 6
     assert [r[0] for r in cells[1:]] == ["r1"] * 3 + ["r2"] * 3
-    assert cells[5][3] == "250"  # thesis cycle time doubled in run 2
+    assert cells[5][4] == "250"  # thesis cycle time doubled in run 2
     default = _cells(comparison_table([fake_summary("a"), fake_summary("b")]))
     assert [r[0] for r in default[1:]] == ["a"] * 3 + ["b"] * 3
 
