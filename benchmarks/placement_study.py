@@ -50,7 +50,7 @@ def main() -> None:
                 except InputError as exc:
                     print(f"{x:7.1f} {y:7.1f} {z:6.0f}  not plannable: {str(exc)[:60]}")
                     continue
-                d, _ = p.model.deflection(np.full(p.problem.n, 4.23e-3))
+                d = p.model.deflection(np.full(p.problem.n, 4.23e-3))
                 up, down = line_feeds(p, plan_thesis(p.problem))
                 print(f"{x:7.1f} {y:7.1f} {z:6.0f} {d.max() * 1e3:13.3f} {up:8.3f} {down:9.3f} "
                       f"{p.problem.lower_bound_time():7.1f} "

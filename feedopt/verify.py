@@ -77,7 +77,7 @@ def verify_trajectory(
         return _non_finite(trajectory, problem, limit)
     timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline)
     feed = trajectory.feed_at(problem.s)
-    deflection, _ = model.deflection(np.maximum(feed, 0.0))
+    deflection = model.deflection(np.maximum(feed, 0.0))
     worst = int(np.argmax(deflection))
     meets = bool(deflection[worst] <= limit * (1 + rtol))
     problems = list(timing.problems)

@@ -78,6 +78,11 @@ def read_slot_forces(path: str | Path) -> list[SlotForceRow]:
         )
     rows = []
     for i, raw in enumerate(reader, start=1):
+        if None in raw:  # DictReader files surplus fields under the key None
+            raise InputError(
+                f"forces CSV {str(p)!r}, data row {i}: {len(header) + len(raw[None])} fields, "
+                f"but the header has {len(header)}"
+            )
         rec = {(k or "").strip(): (v or "").strip() for k, v in raw.items()}
         vals = {}
         for col in CSV_COLUMNS:

@@ -32,9 +32,11 @@ __all__ = [
     "Engagement",
     "ForceSplit",
     "Tool",
+    "critical_angles",
     "feed_from_feed_per_tooth",
     "feed_per_tooth",
     "milling_forces",
+    "milling_forces_at",
     "rotation_angles",
     "spindle_power",
 ]
@@ -46,6 +48,12 @@ _ROW_GAP = 4.0 * math.pi
 _CHUNK = 512
 # Above this many distinct axial depths, sum slice by slice instead of one table per depth.
 _MAX_TABLES = 64
+# Elements (samples x angles) per chunk of the direct slice summation (milling_forces_at and
+# milling_forces with many distinct depths): ~0.5 MB per temporary, so the per-(tooth, slice)
+# passes stay in cache.
+_AT_CHUNK = 1 << 16
+# Exit critical angles are placed this far before the exit angle (slice still in the cut).
+_EXIT_BACKOFF = 1e-9
 
 
 @dataclass(frozen=True)
@@ -163,8 +171,7 @@ def milling_forces(
     -------
     ForceSplit with arrays of shape (n, m, 3) and (n, m).
     """
-    if isinstance(axial_slices, bool) or int(axial_slices) != axial_slices or axial_slices < 1:
-        raise InputError(f"axial_slices must be a whole number >= 1, got {axial_slices!r}")
+    _check_slices(axial_slices)
     validate_engagement(engagement, tool.flute_length)
     phi = np.asarray(angles, dtype=float).reshape(-1)
     if phi.size == 0 or not np.all(np.isfinite(phi)):
@@ -192,17 +199,18 @@ def milling_forces(
     offsets = np.arange(m) * _ROW_GAP
 
     if depths.size > _MAX_TABLES:  # many distinct axial depths: sum slice by slice
-        for start in range(0, uniq.shape[0], _CHUNK):
-            u = np.arange(start, min(start + _CHUNK, uniq.shape[0]))
+        step = max(1, _AT_CHUNK // m)
+        for start in range(0, uniq.shape[0], step):
+            u = np.arange(start, min(start + step, uniq.shape[0]))
             _write(out, first[u], *_slice_sums(tool, coeffs, phi, uniq[u], int(axial_slices)))
     else:
         for d_index, a in enumerate(depths):
-            keys, prefix = _sorted_slice_table(tool, coeffs, phi, float(a), int(axial_slices))
+            table = _sorted_slice_table(tool, coeffs, phi, float(a), int(axial_slices))
             rows = np.nonzero(depth_of == d_index)[0]
             for start in range(0, rows.size, _CHUNK):
                 u = rows[start : start + _CHUNK]
-                hi = _prefix_at(keys, prefix, offsets, uniq[u, 1])
-                lo = _prefix_at(keys, prefix, offsets, uniq[u, 0])
+                hi = _prefix_at(*table, offsets, uniq[u, 1])
+                lo = _prefix_at(*table, offsets, uniq[u, 0])
                 _write(
                     out,
                     first[u],
@@ -219,6 +227,176 @@ def milling_forces(
         for arr in out:
             arr[dup] = arr[src]
     return ForceSplit(phi, *out)
+
+
+def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) -> np.ndarray:
+    """Rotation angles of tooth 1 at which the force jumps, per sample, shape (n, K).
+
+    A slice j (mid-height z_j, helix lag 2 tan(beta) / D * z_j exactly as in
+    :func:`milling_forces`) of any tooth enters the cut at ``theta == entry`` and leaves it at
+    ``theta == exit``; there the forces are discontinuous (e.g. the thick chip at entry in down
+    milling), so a uniform grid of rotation angles misses their supremum. Returned per sample:
+
+    * columns ``0 .. L-1``: the angle at which slice j reaches the entry angle; the slice is in
+      the cut there (half-open test), so the force equals its limit from the right;
+    * columns ``L .. 2L-1``: the angle at which slice j is at ``exit - 1e-9`` rad, the last
+      angle before it leaves (limit from the left, to ~1e-9 rad).
+
+    All teeth give the same angle modulo the tooth pitch, so the angles are reduced to
+    ``[0, 2 pi / N)``, one pitch, over which the forces are periodic; K = 2 L (K = 2 for
+    straight teeth, whose slices all have the same lag). Entry angles are corrected by a few
+    ulps where rounding would otherwise place the slice just outside the cut. Samples with
+    ``entry >= exit`` (no cut) get meaningless but finite angles.
+    """
+    slices = _check_slices(axial_slices)
+    validate_engagement(engagement, tool.flute_length)
+    if tool.helix == 0.0:
+        slices_used = 1  # every slice has lag 0
+    else:
+        slices_used = slices
+    n = engagement.n
+    a = engagement.axial_depth[:, None]
+    lag = np.broadcast_to(_slice_lags(tool, a, slices)[:, :slices_used], (n, slices_used))
+    entry = np.broadcast_to(engagement.entry[:, None], lag.shape)
+    exit_ = np.broadcast_to(engagement.exit[:, None], lag.shape)
+    pitch = tool.pitch
+    target = np.concatenate([entry, exit_ - _EXIT_BACKOFF], axis=1)
+    lag2 = np.concatenate([lag, lag], axis=1)
+    phi = np.mod(target + lag2, pitch)
+    # Make the in-cut test of milling_forces / milling_forces_at hold at the returned angle:
+    # recompute theta with their exact arithmetic for the tooth that reaches the target.
+    lo = np.concatenate([entry, entry], axis=1)
+    hi = np.concatenate([exit_, exit_], axis=1)
+    cutting = lo < hi
+    for _ in range(8):
+        phi = np.where(phi >= pitch, phi - pitch, phi)
+        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), tool.teeth)
+        theta = np.mod(phi + tooth * pitch - lag2, _TWO_PI)
+        bad = cutting & ~((theta >= lo) & (theta < hi))
+        if not bad.any():
+            break
+        # signed shortfall to the target, wrapped to (-pi, pi], plus a few ulps
+        short = np.mod(target - theta + math.pi, _TWO_PI) - math.pi
+        step = np.maximum(short, 0.0) + 4.0 * np.spacing(_TWO_PI + lag2)
+        phi = np.where(bad, phi + step, phi)
+    return phi
+
+
+def milling_forces_at(
+    tool: Tool,
+    coeffs: CuttingCoefficients,
+    engagement: Engagement,
+    angles: np.ndarray,
+    axial_slices: int = 20,
+) -> ForceSplit:
+    """Algorithm 1 forces at a different set of rotation angles per sample.
+
+    Same model, slices and half-open in-cut test as :func:`milling_forces` (and equal to it to
+    rounding when every row of ``angles`` is the same), but ``angles`` has shape (n, k): row i
+    holds the k rotation angles of tooth 1 [rad] at which sample i is evaluated, e.g. a grid
+    joined with :func:`critical_angles`. A (k,) array is used for every sample.
+
+    Direct summation over teeth x slices, vectorised over samples and angles in chunks of
+    ~64 k elements so the temporaries stay small (~0.5 MB each).
+
+    Returns
+    -------
+    ForceSplit whose ``angles`` is the (n, k) array and whose other arrays have shapes
+    (n, k, 3) and (n, k).
+    """
+    slices = _check_slices(axial_slices)
+    validate_engagement(engagement, tool.flute_length)
+    n = engagement.n
+    phi = np.asarray(angles, dtype=float)
+    if phi.ndim == 1:
+        phi = np.broadcast_to(phi, (n, phi.size))
+    if phi.ndim != 2 or phi.shape[0] != n:
+        raise InputError(
+            f"angles must have shape (n, k) = ({n}, k) (one row per sample), got {phi.shape}"
+        )
+    if phi.shape[1] == 0 or not np.all(np.isfinite(phi)):
+        raise InputError("angles must be a non-empty array of finite values [rad]")
+    m = phi.shape[1]
+    out = np.empty((n, m, 8))
+    lag = _slice_lags(tool, engagement.axial_depth[:, None], slices)  # (n, L)
+    da = engagement.axial_depth / slices
+    step = max(1, _AT_CHUNK // m)
+    for start in range(0, n, step):
+        sl = slice(start, min(start + step, n))
+        eng = (engagement.entry[sl], engagement.exit[sl], lag[sl], da[sl])
+        out[sl] = _sums_at(tool, coeffs, phi[sl], *eng)
+    return ForceSplit(np.array(phi), out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
+
+
+def _sums_at(
+    tool: Tool,
+    coeffs: CuttingCoefficients,
+    phi: np.ndarray,
+    entry: np.ndarray,
+    exit_: np.ndarray,
+    lag: np.ndarray,
+    da: np.ndarray,
+) -> np.ndarray:
+    """One chunk of :func:`milling_forces_at`: (c, k) angles -> (c, k, 8) projected sums.
+
+    The slice angle ``theta = mod(phi + tooth pitch - lag_j, 2 pi)`` is formed with the same
+    floating-point operations as in :func:`milling_forces` so that the in-cut test agrees at
+    the boundaries (:func:`critical_angles`); ``np.mod`` is replaced by two conditional
+    shifts, identical for arguments in [-2 pi, 4 pi) and much cheaper. Its sine and cosine
+    come from those of ``phi + tooth pitch`` and of the lag (angle difference identities).
+    """
+    st, ex = entry[:, None], exit_[:, None]
+    cl, sl = np.cos(lag), np.sin(lag)  # (c, L)
+    lag_lo, lag_hi = float(lag.min()), float(lag.max())
+    shape = phi.shape
+    b = np.zeros((5,) + shape)
+    theta = np.empty(shape)
+    mask, tmp_mask = np.empty(shape, dtype=bool), np.empty(shape, dtype=bool)
+    mk, s, c, tmp = (np.empty(shape) for _ in range(4))
+    for tooth in range(tool.teeth):
+        psi = phi + tooth * tool.pitch
+        sp, cp = np.sin(psi), np.cos(psi)
+        cheap_mod = psi.min() - lag_hi >= -_TWO_PI and psi.max() - lag_lo < 2.0 * _TWO_PI
+        for j in range(lag.shape[1]):
+            lj = lag[:, j : j + 1]
+            np.subtract(psi, lj, out=theta)
+            if cheap_mod:  # == np.mod(theta, 2 pi) for theta in [-2 pi, 4 pi)
+                np.greater_equal(theta, _TWO_PI, out=tmp_mask)
+                np.subtract(theta, _TWO_PI, out=theta, where=tmp_mask)
+                np.less(theta, 0.0, out=tmp_mask)
+                np.add(theta, _TWO_PI, out=theta, where=tmp_mask)
+            else:
+                np.mod(theta, _TWO_PI, out=theta)
+            np.greater_equal(theta, st, out=mask)
+            np.less(theta, ex, out=tmp_mask)
+            np.logical_and(mask, tmp_mask, out=mask)
+            if not mask.any():
+                continue
+            np.copyto(mk, mask)
+            # sin(psi - lag) and cos(psi - lag), zeroed outside the cut
+            np.multiply(sp, cl[:, j : j + 1], out=s)
+            np.multiply(cp, sl[:, j : j + 1], out=tmp)
+            np.subtract(s, tmp, out=s)
+            np.multiply(s, mk, out=s)
+            np.multiply(cp, cl[:, j : j + 1], out=c)
+            np.multiply(sp, sl[:, j : j + 1], out=tmp)
+            np.add(c, tmp, out=c)
+            np.multiply(c, mk, out=c)
+            b[0] += mk
+            b[1] += s
+            b[2] += c
+            np.multiply(s, c, out=tmp)
+            b[3] += tmp
+            np.multiply(s, s, out=tmp)
+            b[4] += tmp
+    b *= da[:, None]
+    return _project(b, coeffs, tool.diameter / 2.0)
+
+
+def _check_slices(axial_slices: int) -> int:
+    if isinstance(axial_slices, bool) or int(axial_slices) != axial_slices or axial_slices < 1:
+        raise InputError(f"axial_slices must be a whole number >= 1, got {axial_slices!r}")
+    return int(axial_slices)
 
 
 def _write(out: tuple[np.ndarray, ...], dest: np.ndarray, *parts: tuple) -> None:
@@ -238,72 +416,94 @@ def _slice_sums(
     """Algorithm 1 summed slice by slice (loop over teeth x slices only) for engagement rows
     ``(entry, exit, a)`` of differing axial depth; returns (value, 0) pairs for :func:`_write`.
 
-    Accumulates the masked sums of 1, sin, cos, sin cos and sin^2 of the slice angles, of which
-    every force component is a linear combination.
+    The same direct summation as :func:`milling_forces_at` (:func:`_sums_at`) with the angles
+    shared by all rows.
     """
-    st, ex, a = rows[:, 0:1], rows[:, 1:2], rows[:, 2:3]
-    lag = 2.0 * math.tan(tool.helix) / tool.diameter * a / slices  # per slice step, (k, 1)
-    b = np.zeros((5, rows.shape[0], phi.size))
-    for tooth in range(tool.teeth):
-        psi = phi + tooth * tool.pitch
-        for j in range(slices):
-            theta = np.mod(psi - (j + 0.5) * lag, _TWO_PI)
-            mask = ((theta >= st) & (theta < ex)).astype(float)
-            s, c = np.sin(theta), np.cos(theta)
-            ms = mask * s
-            b[0] += mask
-            b[1] += ms
-            b[2] += mask * c
-            b[3] += ms * c
-            b[4] += ms * s
-    b *= (a / slices)[None]  # slice height da, per row
-    k, r = coeffs, tool.diameter / 2.0
-    cut = np.stack([-k.ktc * b[3] - k.krc * b[4], k.ktc * b[4] - k.krc * b[3], k.kac * b[1]], -1)
-    edge = np.stack([-k.kte * b[2] - k.kre * b[1], k.kte * b[1] - k.kre * b[2], k.kae * b[0]], -1)
-    return (cut, 0.0), (edge, 0.0), (r * k.ktc * b[1], 0.0), (r * k.kte * b[0], 0.0)
+    a = rows[:, 2]
+    shared = np.broadcast_to(phi, (rows.shape[0], phi.size))
+    lag = _slice_lags(tool, a[:, None], slices)
+    p = _sums_at(tool, coeffs, shared, rows[:, 0], rows[:, 1], lag, a / slices)
+    return (p[..., 0:3], 0.0), (p[..., 4:7], 0.0), (p[..., 3], 0.0), (p[..., 7], 0.0)
+
+
+def _slice_lags(tool: Tool, a: np.ndarray | float, slices: int) -> np.ndarray:
+    """Helix lag 2 tan(beta) / D * z_j of the slice mid-heights z_j = (j + 1/2) a / L [rad].
+
+    ``a`` scalar gives shape (L,), ``a`` of shape (k, 1) gives (k, L). The single definition
+    used by every force routine, so that they classify a slice at a boundary identically.
+    """
+    z = (np.arange(slices) + 0.5) * (np.asarray(a, dtype=float) / slices)
+    return 2.0 * math.tan(tool.helix) / tool.diameter * z
+
+
+def _project(b: np.ndarray, coeffs: CuttingCoefficients, radius: float) -> np.ndarray:
+    """Map the five slice sums ``b = [sum 1, sin, cos, sin cos, sin^2]`` (leading axis, already
+    times the slice height da) to ``[cut x, y, z, torque, edge x, y, z, torque]`` (last axis).
+
+    The sign conventions of the module docstring: dFx = -dFt cos - dFr sin,
+    dFy = dFt sin - dFr cos, dFz = dFa, torque = D/2 dFt, with dF(t,r,a) = da (K(t,r,a)c sin phi
+    per unit c + K(t,r,a)e).
+    """
+    k = coeffs
+    out = np.empty(b.shape[1:] + (8,))
+    out[..., 0] = -k.ktc * b[3] - k.krc * b[4]
+    out[..., 1] = k.ktc * b[4] - k.krc * b[3]
+    out[..., 2] = k.kac * b[1]
+    out[..., 3] = (radius * k.ktc) * b[1]
+    out[..., 4] = -k.kte * b[2] - k.kre * b[1]
+    out[..., 5] = k.kte * b[1] - k.kre * b[2]
+    out[..., 6] = k.kae * b[0]
+    out[..., 7] = (radius * k.kte) * b[0]
+    return out
 
 
 def _prefix_at(
-    keys: np.ndarray, prefix: np.ndarray, offsets: np.ndarray, bound: np.ndarray
+    keys: np.ndarray,
+    prefix: np.ndarray,
+    theta: np.ndarray,
+    offsets: np.ndarray,
+    bound: np.ndarray,
 ) -> np.ndarray:
     """Prefix sums of the slices with angle < ``bound`` at every rotation angle.
 
     Returns shape (k, m, 8), or (1, m, 8) when all ``k`` bounds are equal (broadcasts).
     Equal bounds give equal sums, so entry == exit yields exactly zero force.
+
+    The binary search runs on the row-offset keys, whose rounding can blur a tie between a
+    slice angle and ``bound`` (by ~1e-16 times the offset); the index is then moved to where
+    the exact test ``theta < bound`` on the unshifted angles ``theta`` puts it.
     """
     values, inv = np.unique(bound, return_inverse=True)
     idx = np.searchsorted(keys, values[:, None] + offsets, side="left")
+    width = keys.size // offsets.size
+    start = np.arange(offsets.size) * width
+    b = values[:, None]
+    for _ in range(width):  # at most a few slices lie within rounding of a bound
+        down = (idx > start) & (theta[np.maximum(idx - 1, 0)] >= b)
+        up = (idx < start + width) & (theta[np.minimum(idx, theta.size - 1)] < b)
+        if not (down.any() or up.any()):
+            break
+        idx += up.astype(idx.dtype) - down
     table = prefix[idx]
     return table if values.size == 1 else table[inv.reshape(-1)]
 
 
 def _sorted_slice_table(
     tool: Tool, coeffs: CuttingCoefficients, phi: np.ndarray, a: float, slices: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Sorted slice angles (flattened, row r offset by r * 4 pi) and prefix sums of the 8
-    per-slice contributions ``[cut x, y, z, torque, edge x, y, z, torque]``."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sorted slice angles (flattened, row r offset by r * 4 pi), prefix sums of the 8
+    per-slice contributions ``[cut x, y, z, torque, edge x, y, z, torque]`` and the sorted
+    angles without offsets (flattened)."""
     m, teeth = phi.size, tool.teeth
-    da = a / slices
-    z = (np.arange(slices) + 0.5) * da
-    lag = 2.0 * math.tan(tool.helix) / tool.diameter * z
+    lag = _slice_lags(tool, a, slices)
     theta = phi[:, None, None] + (np.arange(teeth) * tool.pitch)[None, :, None] - lag[None, None, :]
     theta = np.mod(theta.reshape(m, teeth * slices), _TWO_PI)
     theta.sort(axis=1)
     s, c = np.sin(theta), np.cos(theta)
-    k = coeffs
-    contrib = np.empty((m, teeth * slices, 8))
-    # cutting part per unit c: dFt = da Ktc sin, dFr = da Krc sin, dFa = da Kac sin
-    contrib[..., 0] = -k.ktc * s * c - k.krc * s * s
-    contrib[..., 1] = k.ktc * s * s - k.krc * s * c
-    contrib[..., 2] = k.kac * s
-    contrib[..., 3] = k.ktc * s * (tool.diameter / 2.0)
-    # edge part: dFt = da Kte, dFr = da Kre, dFa = da Kae
-    contrib[..., 4] = -k.kte * c - k.kre * s
-    contrib[..., 5] = k.kte * s - k.kre * c
-    contrib[..., 6] = k.kae
-    contrib[..., 7] = k.kte * (tool.diameter / 2.0)
-    contrib *= da
+    # per-slice "sums" of 1, sin, cos, sin cos, sin^2 times the slice height
+    b = np.stack([np.ones_like(s), s, c, s * c, s * s]) * (a / slices)
+    contrib = _project(b, coeffs, tool.diameter / 2.0)
     keys = (theta + (np.arange(m) * _ROW_GAP)[:, None]).reshape(-1)
     prefix = np.zeros((keys.size + 1, 8))
     np.cumsum(contrib.reshape(-1, 8), axis=0, out=prefix[1:])
-    return keys, prefix
+    return keys, prefix, theta.reshape(-1)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.forces import critical_angles, milling_forces_at
 from feedopt.schedule.deflection import DeflectionModel
 
 CONSTRAINTS = ("deflection", "max_feed", "spindle_torque", "spindle_power", "joint_velocity")
@@ -45,6 +46,25 @@ class FeedBound:
         return {name: float(np.sum(self.active == i)) / n for i, name in enumerate(CONSTRAINTS)}
 
 
+def _upper_roots_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
+    """Per angle, the largest c with |c a + b| <= limit (``inf`` without cutting force)."""
+    qa = np.einsum("...i,...i->...", a, a)
+    qb = np.einsum("...i,...i->...", a, b)
+    qc = np.einsum("...i,...i->...", b, b) - limit * limit  # <= 0 where feasible at c = 0
+    disc = np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))
+    # Upper root (-qb + disc) / qa, written without cancellation for qb > 0.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = np.where(qb > 0, -qc / (qb + disc), (disc - qb) / qa)
+    root = np.where(qa > 0, root, np.inf)
+    return np.where(np.isnan(root), 0.0, root)
+
+
+def _upper_roots_projected(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
+    """Per angle, the largest c with |c a + b| <= limit for scalar a, b."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a > 0, (limit - b) / a, np.where(a < 0, (-limit - b) / a, np.inf))
+
+
 def largest_feed_per_tooth_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
     """Largest c >= 0 with max over angles of |c a + b| <= limit (norm mode).
 
@@ -59,56 +79,64 @@ def largest_feed_per_tooth_norm(a: np.ndarray, b: np.ndarray, limit: float) -> n
     -------
     (k,) array of c_max [m]; ``inf`` where no angle has a cutting contribution.
     """
-    qa = np.einsum("kmi,kmi->km", a, a)
-    qb = np.einsum("kmi,kmi->km", a, b)
-    qc = np.einsum("kmi,kmi->km", b, b) - limit * limit  # <= 0
-    disc = np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))
-    # Upper root (-qb + disc) / qa, written without cancellation for qb > 0.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        root = np.where(qb > 0, -qc / (qb + disc), (disc - qb) / qa)
-    root = np.where(qa > 0, root, np.inf)
-    root = np.where(np.isnan(root), 0.0, root)
-    return np.maximum(np.min(root, axis=1), 0.0)
+    return np.maximum(np.min(_upper_roots_norm(a, b, limit), axis=1), 0.0)
 
 
 def largest_feed_per_tooth_projected(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
     """Largest c >= 0 with max over angles of |c a + b| <= limit for scalar (k, m) a, b."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        upper = np.where(a > 0, (limit - b) / a, np.where(a < 0, (-limit - b) / a, np.inf))
-    return np.maximum(np.min(upper, axis=1), 0.0)
+    return np.maximum(np.min(_upper_roots_projected(a, b, limit), axis=1), 0.0)
 
 
 def deflection_feed_bound(model: DeflectionModel, limit: float) -> tuple[np.ndarray, np.ndarray]:
-    """v_max from the deflection limit [m/s] and the zero-feed deflection [m], per sample."""
+    """v_max from the deflection limit [m/s] and the zero-feed deflection [m], per sample.
+
+    The largest feed per tooth is the minimum over the angle grid, every slice entry/exit
+    angle (where forces jump) and a refinement around the binding angle
+    (:meth:`DeflectionModel.refine`), so the bound holds between grid points too.
+    """
     c_max = np.empty(model.n)
     zero = np.empty(model.n)
-    for sl, a, b in model.chunks():
-        mag_b = np.linalg.norm(b, axis=-1) if b.ndim == 3 else np.abs(b)
-        zero[sl] = mag_b.max(axis=1)
+
+    def root(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Per-angle largest c (before the minimum over angles), shape (k, M)."""
         if b.ndim == 3:
-            c_max[sl] = largest_feed_per_tooth_norm(a, b, limit)
-        else:
-            c_max[sl] = largest_feed_per_tooth_projected(a, b, limit)
-    return c_max * model.feed_per_unit_c, zero
+            return _upper_roots_norm(a, b, limit)
+        return _upper_roots_projected(a, b, limit)
+
+    def zero_feed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(b, axis=-1) if b.ndim == 3 else np.abs(b)
+
+    for sl, angles, a, b in model.chunks():
+        zero[sl] = model.refine(sl, angles, zero_feed(a, b), "max",
+                                lambda s_, w: zero_feed(*model.at_angles(s_, w)))
+        c_max[sl] = model.refine(sl, angles, root(a, b), "min",
+                                 lambda s_, w: root(*model.at_angles(s_, w)))
+    return np.maximum(c_max, 0.0) * model.feed_per_unit_c, zero
 
 
 def spindle_feed_bounds(
     model: DeflectionModel, torque_max: float, power_max: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Feed bounds [m/s] from the spindle's torque [N m] and power [W] over a revolution."""
+    """Feed bounds [m/s] from the spindle's torque [N m] and power [W] over a revolution
+    (instantaneous torque D/2 Ft of Algorithm 1 on the grid and at every slice entry/exit)."""
     omega = model.rpm * 2.0 * np.pi / 60.0
     v_t = np.empty(model.n)
     v_p = np.empty(model.n)
     step = 8192
     for start in range(0, model.n, step):
-        idx = np.arange(start, min(start + step, model.n))
+        sl = slice(start, min(start + step, model.n))
+        idx = np.arange(sl.start, sl.stop)
         split, row = model.forces(idx)
-        tc, te = split.cutting_torque, split.edge_torque  # (u, m)
+        crit = critical_angles(model.tool, model._engagement(sl), model.axial_slices)
+        at = milling_forces_at(model.tool, model.coefficients, model._engagement(sl), crit,
+                               axial_slices=model.axial_slices)
+        tc = np.concatenate([split.cutting_torque[row], at.cutting_torque], axis=1)
+        te = np.concatenate([split.edge_torque[row], at.edge_torque], axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             ct = np.where(tc > 0, (torque_max - te) / tc, np.inf).min(axis=1)
             cp = np.where(tc > 0, (power_max / omega - te) / tc, np.inf).min(axis=1)
-        v_t[idx] = ct[row] * model.feed_per_unit_c
-        v_p[idx] = cp[row] * model.feed_per_unit_c
+        v_t[sl] = ct * model.feed_per_unit_c
+        v_p[sl] = cp * model.feed_per_unit_c
     return v_t, v_p
 
 

@@ -16,7 +16,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from feedopt.process.forces import CuttingCoefficients, Engagement, ForceSplit, Tool, milling_forces
+from feedopt.process.forces import (
+    CuttingCoefficients,
+    Engagement,
+    ForceSplit,
+    Tool,
+    critical_angles,
+    milling_forces,
+    milling_forces_at,
+)
 
 LIMIT_MODES = ("norm", "normal", "direction")
 
@@ -63,7 +71,7 @@ class DeflectionModel:
         return self.tool.teeth * self.rpm / 60.0
 
     def forces(self, index: np.ndarray) -> tuple[ForceSplit, np.ndarray]:
-        """Force split on the distinct engagements of samples ``index``.
+        """Force split on the uniform angle grid for the distinct engagements of ``index``.
 
         Returns the split over the distinct rows and, per sample, the row it uses.
         """
@@ -79,24 +87,80 @@ class DeflectionModel:
         )
         return split, inverse.ravel()
 
-    def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray]]:
-        """Yield ``(samples, a, b)``: deflection per unit feed per tooth and at zero feed.
+    def _engagement(self, sl: slice) -> Engagement:
+        e = self.engagement
+        return Engagement(entry=e.entry[sl], exit=e.exit[sl], axial_depth=e.axial_depth[sl])
 
-        ``a`` and ``b`` have shape (k, m, 3) in the base frame [m/m and m], or (k, m) when the
-        mode projects on a direction.
+    def _project(self, sl: slice, cutting: np.ndarray, edge: np.ndarray):
+        """Deflection per unit feed per tooth ``a`` and at zero feed ``b`` from forces."""
+        cr = self.compliance[sl] @ self.frames[sl]  # (k, 3, 3): force-model frame -> d
+        a = np.einsum("kij,kmj->kmi", cr, cutting, optimize=True)
+        b = np.einsum("kij,kmj->kmi", cr, edge, optimize=True)
+        if self.mode == "norm":
+            return a, b
+        u = self._directions(sl)
+        return np.einsum("kmi,ki->km", a, u), np.einsum("kmi,ki->km", b, u)
+
+    def at_angles(self, sl: slice, angles: np.ndarray):
+        """``a``, ``b`` of samples ``sl`` at per-sample rotation angles (k, j)."""
+        split = milling_forces_at(self.tool, self.coefficients, self._engagement(sl), angles,
+                                  axial_slices=self.axial_slices)
+        return self._project(sl, split.cutting, split.edge)
+
+    def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray, np.ndarray]]:
+        """Yield ``(samples, angles, a, b)`` over the uniform grid joined with every angle at
+        which a slice enters or leaves the cut (where the force jumps, so the maximum over a
+        revolution sits there or on a smooth part between them).
+
+        ``angles`` is (k, M) per sample; ``a`` and ``b`` have shape (k, M, 3) in the base
+        frame [m/m and m], or (k, M) when the mode projects on a direction.
         """
         for start in range(0, self.n, _CHUNK):
             sl = slice(start, min(start + _CHUNK, self.n))
             idx = np.arange(sl.start, sl.stop)
             split, row = self.forces(idx)
-            cr = self.compliance[sl] @ self.frames[sl]  # (k, 3, 3): force-model frame -> d
-            a = np.einsum("kij,kmj->kmi", cr, split.cutting[row], optimize=True)
-            b = np.einsum("kij,kmj->kmi", cr, split.edge[row], optimize=True)
-            if self.mode == "norm":
-                yield sl, a, b
-            else:
-                u = self._directions(sl)
-                yield sl, np.einsum("kmi,ki->km", a, u), np.einsum("kmi,ki->km", b, u)
+            a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])
+            crit = critical_angles(self.tool, self._engagement(sl), self.axial_slices)
+            a_crit, b_crit = self.at_angles(sl, crit)
+            grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
+            yield (sl, np.concatenate([grid, crit], axis=1),
+                   np.concatenate([a_grid, a_crit], axis=1),
+                   np.concatenate([b_grid, b_crit], axis=1))
+
+    @property
+    def _step(self) -> float:
+        """Largest spacing of the uniform angle grid [rad]."""
+        if self.angles.size < 2:
+            return 2.0 * np.pi / self.tool.teeth
+        return float(np.max(np.diff(np.sort(self.angles))))
+
+    def refine(self, sl: slice, angles: np.ndarray, value: np.ndarray, worst: str,
+               evaluate) -> np.ndarray:
+        """Refine the extreme of a per-angle quantity between grid points.
+
+        Between the jumps (which :meth:`chunks` samples exactly) the forces are smooth, so
+        the extreme lies within one grid step of the best grid or critical angle: evaluate a
+        window of 17 angles across +-1 step around it, then the vertex of the parabola
+        through the best window point and its neighbours. Returns the per-sample extreme
+        (max if ``worst == "max"``, else min) over everything evaluated.
+        """
+        pick = np.argmax if worst == "max" else np.argmin
+        best_i = pick(value, axis=1)
+        centre = np.take_along_axis(angles, best_i[:, None], axis=1)[:, 0]
+        h = self._step / 8.0
+        window = centre[:, None] + h * np.arange(-8, 9)[None, :]
+        vw = evaluate(sl, window)
+        j = np.clip(pick(vw, axis=1), 1, 15)
+        y0, y1, y2 = (np.take_along_axis(vw, (j + d)[:, None], axis=1)[:, 0] for d in (-1, 0, 1))
+        with np.errstate(divide="ignore", invalid="ignore"):  # inf roots: no cutting force
+            curv = y0 - 2.0 * y1 + y2
+            towards = curv < 0 if worst == "max" else curv > 0
+            shift = np.where(towards, 0.5 * (y0 - y2) / curv, 0.0)
+        vertex = np.take_along_axis(window, j[:, None], axis=1)[:, 0] + np.clip(shift, -1, 1) * h
+        vv = evaluate(sl, vertex[:, None])[:, 0]
+        stack = np.column_stack([value.max(axis=1) if worst == "max" else value.min(axis=1),
+                                 vw.max(axis=1) if worst == "max" else vw.min(axis=1), vv])
+        return stack.max(axis=1) if worst == "max" else stack.min(axis=1)
 
     def _directions(self, sl: slice) -> np.ndarray:
         if self.mode == "normal":
@@ -106,22 +170,24 @@ class DeflectionModel:
             return np.broadcast_to(d / np.linalg.norm(d), (sl.stop - sl.start, 3))
         raise ValueError(f"unknown limit mode {self.mode!r}; expected one of {LIMIT_MODES}")
 
-    def deflection(self, feed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def deflection(self, feed: np.ndarray) -> np.ndarray:
         """Max over the revolution of the limited deflection [m] at path feeds ``feed`` [m/s].
 
         This is the forward replay used by verification: F = c Fc + Fe at the commanded
-        feed per tooth, rotated to the base frame and multiplied by the compliance.
-        Returns the per-sample maximum and the index of the angle where it occurs.
+        feed per tooth, rotated to the base frame and multiplied by the compliance, over the
+        angle grid, every slice entry/exit angle and a refinement around the worst angle.
         """
         c = np.asarray(feed, dtype=float) / self.feed_per_unit_c
         out = np.empty(self.n)
-        arg = np.empty(self.n, dtype=int)
-        for sl, a, b in self.chunks():
+
+        def magnitude(sl: slice, a: np.ndarray, b: np.ndarray) -> np.ndarray:
             d = c[sl, None, None] * a + b if a.ndim == 3 else c[sl, None] * a + b
-            mag = np.linalg.norm(d, axis=-1) if d.ndim == 3 else np.abs(d)
-            arg[sl] = np.argmax(mag, axis=1)
-            out[sl] = np.take_along_axis(mag, arg[sl, None], axis=1)[:, 0]
-        return out, arg
+            return np.linalg.norm(d, axis=-1) if d.ndim == 3 else np.abs(d)
+
+        for sl, angles, a, b in self.chunks():
+            out[sl] = self.refine(sl, angles, magnitude(sl, a, b), "max",
+                                  lambda s_, w: magnitude(s_, *self.at_angles(s_, w)))
+        return out
 
 
 def feed_frames(tangent: np.ndarray, tool_axis: np.ndarray) -> np.ndarray:

@@ -82,6 +82,7 @@ def test_calibration_refuses_single_feed_and_bad_depth(tmp_path):
         ("spindle_rpm,feed_mm_s,fx_n,fy_n,fz_n\n0,1,2,3,4\n", "must be > 0"),
         ("# only a comment\n", "no header"),
         ("spindle_rpm,feed_mm_s,fx_n,fy_n,fz_n\n", "no data rows"),
+        ("spindle_rpm,feed_mm_s,fx_n,fy_n,fz_n\n1000,1,2,3,4\n1000,2,3,4,5,6\n", "row 2: 6 fields"),
     ],
 )
 def test_bad_forces_csv(tmp_path, text, match):

@@ -269,3 +269,16 @@ def test_many_distinct_axial_depths_use_slice_sums_consistently(monkeypatch):
     for name in ("cutting", "edge", "cutting_torque", "edge_torque"):
         a, b = getattr(table, name), getattr(sliced, name)
         np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-9 * np.abs(a).max())
+
+
+def test_exact_ties_at_late_rotation_angles():
+    """A slice exactly on entry/exit at a late angle index (large row offset in the sorted
+    table) is still classified by the exact half-open test, as in Algorithm 1."""
+    tool = make_tool(0.0, teeth=3)
+    eng = peripheral_engagement(np.array([0.25, 0.75]) * tool.diameter, tool.diameter, 2e-3, "up")
+    eng = Engagement(np.r_[eng.entry, math.pi / 3], np.r_[eng.exit, math.pi], np.full(3, 2e-3))
+    angles = np.linspace(-1.0, 3 * math.pi, 41)  # a tooth at exactly pi/3 at index 40
+    split = milling_forces(tool, K, eng, angles, axial_slices=3)
+    for s in range(eng.n):
+        ref = brute_force(tool, K, eng.entry[s], eng.exit[s], 2e-3, 1e-4, angles, 3)
+        np.testing.assert_allclose(split.forces(1e-4)[s], ref[:, :3], rtol=1e-9, atol=1e-9)
