@@ -90,8 +90,8 @@ def run(args: argparse.Namespace) -> int:
     if args.milling not in MILLING_MODES:
         raise InputError(f"--milling must be 'up' or 'down', got {args.milling!r}")
     step = args.step_deg
-    if not (math.isfinite(step) and 0 < step <= 90):
-        raise InputError(f"--step-deg must be in (0, 90] deg, got {step!r}")
+    if not (math.isfinite(step) and 0.001 <= step <= 90):
+        raise InputError(f"--step-deg must be in [0.001, 90] deg, got {step!r}")
     if args.axial_slices < 1:
         raise InputError(f"--axial-slices must be >= 1, got {args.axial_slices}")
     _check_out(args.out, "--out")

@@ -140,17 +140,17 @@ class DeflectionModel:
 
         Between the jumps (which :meth:`chunks` samples exactly) the forces are smooth, so
         the extreme lies within one grid step of the best grid or critical angle: evaluate a
-        window of 17 angles across +-1 step around it, then the vertex of the parabola
+        window of 9 angles across +-1 step around it, then the vertex of the parabola
         through the best window point and its neighbours. Returns the per-sample extreme
         (max if ``worst == "max"``, else min) over everything evaluated.
         """
         pick = np.argmax if worst == "max" else np.argmin
         best_i = pick(value, axis=1)
         centre = np.take_along_axis(angles, best_i[:, None], axis=1)[:, 0]
-        h = self._step / 8.0
-        window = centre[:, None] + h * np.arange(-8, 9)[None, :]
+        h = self._step / 4.0
+        window = centre[:, None] + h * np.arange(-4, 5)[None, :]
         vw = evaluate(sl, window)
-        j = np.clip(pick(vw, axis=1), 1, 15)
+        j = np.clip(pick(vw, axis=1), 1, 7)
         y0, y1, y2 = (np.take_along_axis(vw, (j + d)[:, None], axis=1)[:, 0] for d in (-1, 0, 1))
         with np.errstate(divide="ignore", invalid="ignore"):  # inf roots: no cutting force
             curv = y0 - 2.0 * y1 + y2
