@@ -146,13 +146,16 @@ def test_export_unverified_writes_topp_with_honest_jerk(tmp_path: Path) -> None:
     assert np.max(np.abs(table.jerk_mm_s3)) > 0.4 * jump / 0.004
 
 
-def test_square_slot_runs(tmp_path: Path) -> None:
+def test_square_slot_runs_every_law(tmp_path: Path) -> None:
     out = tmp_path / "square"
     code = main(["run", str(SCENARIOS / "square_slot.yaml"), "--out", str(out),
-                 "--spacing-mm", "1.0", "--laws", "thesis,jerk", "--no-report"])
+                 "--spacing-mm", "2.0", "--no-report"])
     assert code == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert all(e["verified"] for e in summary["laws"].values())
+    assert set(summary["laws"]) == {"constant", "thesis", "topp", "convex", "jerk"}
+    for law, entry in summary["laws"].items():
+        assert entry["verified"], (law, entry["problems"])
+        assert entry["exported"] == (law in ("thesis", "convex", "jerk"))
 
 
 def _scenario_copy(tmp_path: Path, name: str, **changes) -> Path:
