@@ -23,6 +23,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.robot.kuka import abc_from_rotation
+from feedopt.textio import read_user_text
 
 COLUMNS: tuple[str, ...] = (
     "t_s",
@@ -234,12 +235,7 @@ def read_rsi_csv(path: str | Path) -> RsiTable:
         a finite number, or times that do not increase; the message names the line and column.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"RSI CSV {path} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read RSI CSV {path}: {exc}") from None
+    text = read_user_text(path, "RSI CSV")
     header_line = None
     rows: list[list[float]] = []
     line_numbers: list[int] = []

@@ -9,6 +9,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.textio import read_user_text
 
 COLUMNS = ("x_mm", "y_mm", "z_mm")
 
@@ -21,12 +22,7 @@ def read_waypoints_csv(path: str | FilePath) -> np.ndarray:
     finite number; errors name the file line and column.
     """
     p = FilePath(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"waypoint file {p} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read waypoint file {p}: {exc}") from None
+    text = read_user_text(p, "waypoint file", encoding="utf-8-sig")
     lines = [(no, ln) for no, ln in enumerate(text.splitlines(), start=1)
              if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:

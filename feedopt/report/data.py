@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.textio import read_user_text
 
 # Per-law keys of summary.json and their kinds ("num": number or null, "bool": bool or null).
 LAW_KEYS: dict[str, str] = {
@@ -202,14 +203,8 @@ def load_summary(path: str | Path) -> dict:
     path = Path(path)
     if path.is_dir():
         path = path / "summary.json"
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(
-            f"{path} does not exist (give a directory written by `feedopt run`)"
-        ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read {path}: {exc}") from None
+    text = read_user_text(path, "run summary",
+                          missing_hint=" (give a directory written by `feedopt run`)")
     try:
         obj = json.loads(text)
     except json.JSONDecodeError as exc:

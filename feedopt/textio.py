@@ -1,0 +1,22 @@
+"""Reading the text files users hand us (CSV, JSON) with one clear error for each failure."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from feedopt.errors import InputError
+
+
+def read_user_text(path: str | Path, what: str, encoding: str = "utf-8",
+                   missing_hint: str = "") -> str:
+    """Text of ``path``; InputError naming ``what`` and the file if it is missing or unreadable.
+
+    ``encoding="utf-8-sig"`` also accepts a byte-order mark (spreadsheet exports).
+    """
+    p = Path(path)
+    try:
+        return p.read_text(encoding=encoding)
+    except FileNotFoundError:
+        raise InputError(f"{what} {p} does not exist{missing_hint}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read {what} {p}: {exc}") from None
