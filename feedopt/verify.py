@@ -70,14 +70,21 @@ def verify_trajectory(
     model: DeflectionModel,
     limit: float,
     rtol: float = 1e-6,
+    deflection: np.ndarray | None = None,
 ) -> Verification:
-    """Replay ``trajectory`` on the path samples of ``problem`` and check every constraint."""
+    """Replay ``trajectory`` on the path samples of ``problem`` and check every constraint.
+
+    ``deflection`` may carry ``model.deflection(trajectory.feed_at(problem.s))`` already
+    computed (the runner replays all laws in one pass over the forces); otherwise it is
+    computed here.
+    """
     baseline = trajectory.law in BASELINE_LAWS
     if not is_finite(trajectory):
         return _non_finite(trajectory, problem, limit)
     timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline)
     feed = trajectory.feed_at(problem.s)
-    deflection = model.deflection(np.maximum(feed, 0.0))
+    if deflection is None:
+        deflection = model.deflection(np.maximum(feed, 0.0))
     worst = int(np.argmax(deflection))
     meets = bool(deflection[worst] <= limit * (1 + rtol))
     problems = list(timing.problems)

@@ -176,18 +176,22 @@ class DeflectionModel:
         This is the forward replay used by verification: F = c Fc + Fe at the commanded
         feed per tooth, rotated to the base frame and multiplied by the compliance, over the
         angle grid, every slice entry/exit angle and a refinement around the worst angle.
+        ``feed`` is (n,) or (L, n) for L feed profiles (several timing laws): the forces of
+        each chunk are then computed once for all of them. The result has ``feed``'s shape.
         """
-        c = np.asarray(feed, dtype=float) / self.feed_per_unit_c
-        out = np.empty(self.n)
+        c_all = np.atleast_2d(np.asarray(feed, dtype=float)) / self.feed_per_unit_c
+        out = np.empty(c_all.shape)
 
-        def magnitude(sl: slice, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-            d = c[sl, None, None] * a + b if a.ndim == 3 else c[sl, None] * a + b
+        def magnitude(c: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+            d = c[:, None, None] * a + b if a.ndim == 3 else c[:, None] * a + b
             return np.linalg.norm(d, axis=-1) if d.ndim == 3 else np.abs(d)
 
         for sl, angles, a, b in self.chunks():
-            out[sl] = self.refine(sl, angles, magnitude(sl, a, b), "max",
-                                  lambda s_, w: magnitude(s_, *self.at_angles(s_, w)))
-        return out
+            for row, c in enumerate(c_all[:, sl]):
+                out[row, sl] = self.refine(
+                    sl, angles, magnitude(c, a, b), "max",
+                    lambda s_, w, c=c: magnitude(c, *self.at_angles(s_, w)))
+        return out.reshape(np.shape(feed))
 
 
 def feed_frames(tangent: np.ndarray, tool_axis: np.ndarray) -> np.ndarray:
