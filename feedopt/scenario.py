@@ -14,10 +14,11 @@ import difflib
 from pathlib import Path
 from typing import Annotated, Literal, get_args, get_origin
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from feedopt.errors import InputError
+from feedopt.textio import read_user_text
+from feedopt.yamlio import excerpt, parse_yaml
 
 LAWS = ("constant", "thesis", "topp", "convex", "jerk")
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
@@ -26,7 +27,9 @@ Vector3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # strict: a number field takes a number written as a number (no "true" -> 1.0, no
+    # strings parsed as numbers); the YAML reader keeps 0x1D, yes/no, 1:30 as strings.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
 
 class RobotSection(_Strict):
@@ -186,14 +189,27 @@ class ScheduleSection(_Strict):
     axial_slices: Annotated[int, Field(ge=1, le=500)] = Field(20, description="axial slices")
 
 
+#: RSI sensor cycles a KRC4 runs (ms): IPO_FAST (4 ms) and IPO mode (12 ms).
+RSI_CYCLES_MS = (4.0, 12.0)
+
+
 class ExportSection(_Strict):
-    rsi_cycle_ms: PositiveFloat = Field(4.0, description="RSI cycle (ms)")
+    rsi_cycle_ms: PositiveFloat = Field(4.0, description="RSI cycle (ms): the controller's "
+                                        "sensor cycle, 4 (IPO_FAST) or 12 (IPO)")
+
+    @model_validator(mode="after")
+    def _cycle(self) -> ExportSection:
+        if self.rsi_cycle_ms not in RSI_CYCLES_MS:
+            raise ValueError(f"rsi_cycle_ms = {self.rsi_cycle_ms:g} ms is not an RSI cycle: a "
+                             "KRC4 exchanges RSI packets every 4 ms (IPO_FAST) or 12 ms (IPO)")
+        return self
 
 
 class Scenario(_Strict):
     """A complete planning job (see scenarios/*.yaml)."""
 
-    name: str = Field(description="scenario name (output folder out/<name>/)")
+    name: str = Field(description="scenario name (output folder out/<name>/): letters, digits, "
+                      "'.', '_', '-'", pattern=r"^[A-Za-z0-9_][A-Za-z0-9._-]{0,99}$")
     description: str = Field("", description="free text")
     robot: RobotSection
     workpiece: WorkpieceSection
@@ -206,6 +222,24 @@ class Scenario(_Strict):
     limits: LimitsSection = LimitsSection()
     schedule: ScheduleSection = ScheduleSection()
     export: ExportSection = ExportSection()
+
+
+def scenario_warnings(scenario: Scenario) -> list[str]:
+    """What a valid scenario asks for that is probably not what the user meant, and what the
+    run will do about it (printed, and kept in summary.json and the report)."""
+    out = []
+    feed = scenario.feed
+    if feed.max_mm_s is not None and feed.max_mm_s < feed.nominal_mm_s:
+        out.append(f"feed.max_mm_s = {feed.max_mm_s:g} mm/s is below feed.nominal_mm_s = "
+                   f"{feed.nominal_mm_s:g} mm/s: every optimised law is capped at "
+                   f"{feed.max_mm_s:g} mm/s, while the constant baseline still runs at the "
+                   "nominal feed")
+    laws = scenario.schedule.laws
+    repeated = sorted({law for law in laws if laws.count(law) > 1})
+    if repeated:
+        out.append(f"schedule.laws lists {', '.join(repeated)} more than once: each law is "
+                   "planned once")
+    return out
 
 
 def _field_names(model: type[BaseModel], loc: tuple) -> list[str]:
@@ -235,7 +269,7 @@ def format_validation_error(exc: ValidationError, source: str) -> str:
             lines.append(f"  - {path}: required field is missing")
         else:
             got = err.get("input")
-            got_s = "" if isinstance(got, dict) else f" (got {got!r})"
+            got_s = "" if isinstance(got, dict) else f" (got {excerpt(got)})"
             lines.append(f"  - {path}: {err['msg']}{got_s}")
     return "\n".join(lines)
 
@@ -250,13 +284,9 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Path]:
     """
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"scenario file not found: {path}")
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise InputError(f"{path}: not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
+        raise InputError(f"scenario file not found: {path}"
+                         + (" (it is a folder)" if path.is_dir() else ""))
+    raw = parse_yaml(read_user_text(path, "scenario file"), str(path))
     if not isinstance(raw, dict):
         raise InputError(f"{path}: a scenario must be a YAML mapping of sections, got "
                          f"{type(raw).__name__}")

@@ -18,5 +18,11 @@ def read_user_text(path: str | Path, what: str, encoding: str = "utf-8",
         return p.read_text(encoding=encoding)
     except FileNotFoundError:
         raise InputError(f"{what} {p} does not exist{missing_hint}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read {what} {p}: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{what} {p} is not UTF-8 text (undecodable byte at offset {exc.start}): is it the "
+            "right file? Save it as UTF-8 text") from None
+    except IsADirectoryError:
+        raise InputError(f"{what} {p} is a folder, not a file") from None
+    except OSError as exc:
+        raise InputError(f"cannot read {what} {p}: {exc.strerror or exc}") from None

@@ -88,3 +88,99 @@ def test_schema_reference_documents_every_section() -> None:
                 "deflection.limit_mm", "limits.tangential_jerk_mm_s3", "schedule.laws",
                 "export.rsi_cycle_ms"):
         assert f"**{key}**" in ref
+
+
+# --- issue 19: no silent coercions -------------------------------------------------------
+
+TRIANGLE_TEXT = (ROOT / "scenarios" / "triangle_slot.yaml").read_text()
+
+
+def _text_scenario(tmp_path: Path, old: str, new: str) -> Path:
+    assert old in TRIANGLE_TEXT
+    p = tmp_path / "scenarios" / "s.yaml"
+    p.parent.mkdir(exist_ok=True)
+    p.write_text(TRIANGLE_TEXT.replace(old, new).replace("../robots", str(ROOT / "robots"))
+                 .replace("tools/", str(ROOT / "scenarios" / "tools") + "/")
+                 .replace("materials/", str(ROOT / "scenarios" / "materials") + "/"))
+    return p
+
+
+@pytest.mark.parametrize("written", ["true", "yes", "on", "0x1D", "0o35", "'0.29'", "1:30"])
+def test_limit_written_as_a_non_number_is_refused(tmp_path, written) -> None:
+    p = _text_scenario(tmp_path, "limit_mm: 0.29", f"limit_mm: {written}")
+    with pytest.raises(InputError, match=r"deflection\.limit_mm: Input should be a valid number"):
+        load_scenario(p)
+
+
+def test_exponent_without_dot_is_a_number(tmp_path) -> None:
+    p = _text_scenario(tmp_path, "limit_mm: 0.29", "limit_mm: 29e-2")
+    assert load_scenario(p)[0].deflection.limit_mm == pytest.approx(0.29)
+
+
+def test_duplicate_key_is_refused_with_both_lines(tmp_path) -> None:
+    p = _text_scenario(tmp_path, "  limit_mm: 0.29\n", "  limit_mm: 0.29\n  limit_mm: 0.5\n")
+    lines = p.read_text().splitlines()
+    first = lines.index("  limit_mm: 0.29") + 1
+    with pytest.raises(InputError, match=f"'limit_mm' is given twice.*lines {first} and "
+                                         f"{first + 1}"):
+        load_scenario(p)
+
+
+def test_duplicate_section_is_refused(tmp_path) -> None:
+    p = _text_scenario(tmp_path, "deflection:\n", "deflection:\n  limit_mm: 1.0\n\n"
+                       "deflection:\n")
+    with pytest.raises(InputError, match="'deflection' is given twice"):
+        load_scenario(p)
+
+
+def test_alias_bomb_is_refused_with_a_short_message(tmp_path) -> None:
+    bomb = ['a0: &a0 ["x","x","x","x","x","x","x","x","x"]']
+    bomb += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+    p = _text_scenario(tmp_path, "name: triangle_slot\n", "\n".join(bomb) + "\nname: *a8\n")
+    with pytest.raises(InputError) as e:
+        load_scenario(p)
+    assert "expand to more than" in str(e.value) and len(str(e.value)) < 400
+
+
+def test_long_bad_value_is_echoed_as_a_short_excerpt(tmp_path) -> None:
+    p = _text_scenario(tmp_path, "limit_mm: 0.29", "limit_mm: [" + ", ".join(["1"] * 5000) + "]")
+    with pytest.raises(InputError) as e:
+        load_scenario(p)
+    assert "deflection.limit_mm" in str(e.value) and len(str(e.value)) < 400
+
+
+@pytest.mark.parametrize("cycle", ["1", "0.001", "100000", "8"])
+def test_rsi_cycle_must_be_a_controller_cycle(tmp_path, cycle) -> None:
+    p = _text_scenario(tmp_path, "rsi_cycle_ms: 4", f"rsi_cycle_ms: {cycle}")
+    with pytest.raises(InputError, match=r"export.*not an RSI cycle.*4 ms.*12 ms"):
+        load_scenario(p)
+
+
+def test_rsi_cycle_of_12_ms_is_accepted(tmp_path) -> None:
+    p = _text_scenario(tmp_path, "rsi_cycle_ms: 4", "rsi_cycle_ms: 12")
+    assert load_scenario(p)[0].export.rsi_cycle_ms == 12
+
+
+@pytest.mark.parametrize("name", ["../../etc", "/tmp/x", ".", "..", "a/b", ""])
+def test_scenario_name_must_be_a_plain_folder_name(tmp_path, name) -> None:
+    p = _text_scenario(tmp_path, "name: triangle_slot", f"name: '{name}'")
+    with pytest.raises(InputError, match="name"):
+        load_scenario(p)
+
+
+def test_binary_scenario_is_bad_input(tmp_path, capsys) -> None:
+    p = tmp_path / "garbage.yaml"
+    p.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)))
+    assert main(["validate", str(p)]) == 2
+    assert "not UTF-8 text" in capsys.readouterr().err
+
+
+def test_warnings_for_max_feed_below_nominal_and_repeated_laws(tmp_path) -> None:
+    from feedopt.scenario import scenario_warnings
+
+    p = _text_scenario(tmp_path, "laws: [constant, thesis, topp, convex, jerk]",
+                       "laws: [constant, jerk, jerk]")
+    p.write_text(p.read_text().replace("nominal_mm_s: 4.23", "nominal_mm_s: 4.23\n  max_mm_s: 3"))
+    warnings = scenario_warnings(load_scenario(p)[0])
+    assert any("max_mm_s = 3 mm/s is below feed.nominal_mm_s = 4.23" in w for w in warnings)
+    assert any("jerk more than once" in w for w in warnings)

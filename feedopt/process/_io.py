@@ -3,26 +3,10 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any
 
-import yaml
-
 from feedopt.errors import InputError
-
-
-def read_yaml_mapping(path: str | Path, what: str) -> dict[str, Any]:
-    """Read a YAML file whose top level must be a mapping; InputError otherwise."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"{what} file {str(p)!r} does not exist")
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        raise InputError(f"{what} file {str(p)!r} is not valid YAML: {exc}") from exc
-    if not isinstance(data, dict):
-        raise InputError(f"{what} file {str(p)!r}: expected a mapping of fields at the top level")
-    return data
+from feedopt.yamlio import read_yaml_mapping  # noqa: F401 - re-exported for the readers
 
 
 def number(data: dict[str, Any], key: str, where: str) -> float:

@@ -24,11 +24,14 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from feedopt.errors import InputError
+from feedopt.yamlio import read_yaml
 
 TCP_FRAME_NAME = "feedopt_tcp"
+#: Controller families a robot.yaml may name (``controller:``); ``generic`` gets no native
+#: program, only the RSI-style setpoint CSV.
+CONTROLLERS = ("kuka", "ur", "generic")
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,12 @@ class RobotModel:
         Where each group of numbers comes from.
     joint_names : tuple of str
         Names of the actuated joints, in configuration order.
+    controller : str
+        Controller family from ``robot.yaml`` (one of :data:`CONTROLLERS`): which native
+        programs can be exported (a KRL program only for ``kuka``).
+    data_warnings : tuple of str
+        ``robot.yaml``'s ``warnings:``: caveats on its numbers (placeholders, unverified
+        sources) that every run with this robot repeats in its output, summary and report.
     """
 
     name: str
@@ -69,6 +78,8 @@ class RobotModel:
     tcp_offset: np.ndarray
     sources: dict[str, str]
     joint_names: tuple[str, ...] = field(default=())
+    controller: str = "generic"
+    data_warnings: tuple[str, ...] = field(default=())
 
     @property
     def dof(self) -> int:
@@ -125,10 +136,7 @@ def load_robot(directory: str | Path) -> RobotModel:
     yaml_path = directory / "robot.yaml"
     if not yaml_path.is_file():
         raise InputError(f"{directory}: no robot.yaml found (a robot directory needs one)")
-    try:
-        doc = yaml.safe_load(yaml_path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(f"{yaml_path}: not valid YAML: {exc}") from exc
+    doc = read_yaml(yaml_path, "robot file") or {}
     if not isinstance(doc, dict):
         raise InputError(f"{yaml_path}: expected a mapping at the top level")
     if "urdf" not in doc:
@@ -208,6 +216,13 @@ def load_robot(directory: str | Path) -> RobotModel:
         raise InputError(f"{urdf_path}: every joint needs a finite <limit lower upper>")
 
     names = tuple(model.names[i] for i in range(1, model.njoints))
+    controller = doc.get("controller", "generic")
+    if controller not in CONTROLLERS:
+        raise InputError(f"{yaml_path}: controller must be one of {', '.join(CONTROLLERS)}, "
+                         f"got {controller!r}")
+    warnings = doc.get("warnings", [])
+    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
+        raise InputError(f"{yaml_path}: warnings must be a list of sentences (strings)")
     return RobotModel(
         name=str(doc.get("name", directory.name)),
         model=model,
@@ -220,6 +235,8 @@ def load_robot(directory: str | Path) -> RobotModel:
         tcp_offset=tcp_offset,
         sources=sources,
         joint_names=names,
+        controller=controller,
+        data_warnings=tuple(" ".join(w.split()) for w in warnings),
     )
 
 
