@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from feedopt.errors import InputError
 from feedopt.process.calibration import calibrate, calibration_table, read_slot_forces
-from feedopt.process.coefficients import save_coefficients
+from feedopt.process.coefficients import AXIAL_SIGN_NOTE, save_coefficients, sign_problems
+from feedopt.units import MM
 
 
 def add_parser(subparsers) -> None:
@@ -19,7 +21,11 @@ def add_parser(subparsers) -> None:
             "Linear regression of full-immersion slotting forces on feed per tooth, per spindle "
             "speed (thesis Eq. 3.24), and the six coefficients of Eq. 3.25. The CSV has columns "
             "spindle_rpm,feed_mm_s,fx_n,fy_n,fz_n (forces on the tool, force-model frame; '#' "
-            "comment lines allowed)."
+            "comment lines allowed). --out also records the feed-per-tooth range of the cuts "
+            "(feed_per_tooth_range_mm), outside which feedopt forces warns. A fit with "
+            "Ktc or Krc <= 0 or Kte or Kre < 0 (unphysical signs, thesis 3.6.1) is printed "
+            "with a warning, and --out refuses to write it (exit 2): feedopt would refuse "
+            "to load that file."
         ),
     )
     p.add_argument("forces_csv", metavar="FORCES.csv", help="average slotting forces")
@@ -55,12 +61,27 @@ def run(args: argparse.Namespace) -> int:
             f"{k.kre / 1e3:7.3f} {k.kac / 1e8:7.3f} {k.kae / 1e3:7.3f}   "
             + " ".join(f"{r:6.4f}" for r in cal.r2)
         )
-    if args.out:
-        source = (
-            f"feedopt calibrate {Path(args.forces_csv).name} --teeth {args.teeth} "
-            f"--axial-depth-mm {args.axial_depth_mm:g} (thesis Eq. 3.24-3.25)"
+    source = (
+        f"feedopt calibrate {Path(args.forces_csv).name} --teeth {args.teeth} "
+        f"--axial-depth-mm {args.axial_depth_mm:g} (thesis Eq. 3.24-3.25)"
+    )
+    table = calibration_table(cals, material=args.material, tool=args.tool, source=source)
+    lo, hi = table.feed_per_tooth_range
+    print(f"feed per tooth of the cuts: {lo / MM:.5g}..{hi / MM:.5g} mm")
+    bad = [(cal.rpm, sign_problems(cal.coeffs)) for cal in cals]
+    bad = [(rpm, p) for rpm, p in bad if p]
+    if bad:
+        what = "; ".join(f"at {rpm:g} rpm: {', '.join(p)}" for rpm, p in bad)
+        why = (
+            f"the fit gives unphysical coefficient signs ({what}). Check that the forces are "
+            "on the tool in the force-model frame (slotting: mean fx < 0, fy > 0 growing with "
+            "the feed) and that each speed has cuts over a wide enough range of feeds; "
+            f"{AXIAL_SIGN_NOTE}"
         )
-        table = calibration_table(cals, material=args.material, tool=args.tool, source=source)
+        if args.out:
+            raise InputError(f"{why}. Not writing {args.out}: feedopt would refuse to load it")
+        print(f"feedopt calibrate: warning: {why}", file=sys.stderr)
+    if args.out:
         save_coefficients(table, args.out)
         print(f"wrote {args.out}")
     return 0

@@ -4,17 +4,28 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.process.coefficients import load_coefficients
+from feedopt.process.coefficients import feed_per_tooth_warning, load_coefficients
 from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
 from feedopt.process.forces import feed_per_tooth, milling_forces
 from feedopt.process.tool import load_tool
+from feedopt.units import MM
 
 HEADER = "angle_deg,fx_n,fy_n,fz_n,f_n,torque_nm,power_w"
+
+#: Largest spindle speed accepted [rpm] (high-speed spindles reach 30-60 krpm).
+MAX_RPM = 100_000.0
+#: Angular step range [deg] (the scenario's angle_step_deg allows 0.01..10).
+STEP_DEG_RANGE = (0.01, 90.0)
+#: Axial slice range (as the scenario's axial_slices).
+SLICES_RANGE = (1, 500)
+#: Largest angles x teeth x slices table (about 190 bytes each, so ~0.4 GB and ~1 s).
+MAX_TABLE = 2_000_000
 
 
 def add_parser(subparsers) -> None:
@@ -35,8 +46,17 @@ def add_parser(subparsers) -> None:
         metavar="YAML",
         help="cutting coefficients file (feedopt calibrate --out, scenarios/materials)",
     )
-    p.add_argument("--rpm", type=float, required=True, help="spindle speed [rpm]")
-    p.add_argument("--feed-mm-s", type=float, required=True, help="feed rate [mm/s]")
+    p.add_argument(
+        "--rpm", type=float, required=True, help=f"spindle speed [rpm], (0, {MAX_RPM:g}]"
+    )
+    p.add_argument(
+        "--feed-mm-s",
+        type=float,
+        required=True,
+        help="feed rate [mm/s], > 0; the feed per tooth feed / (rpm / 60 * teeth) must be "
+        "below the tool radius, and a warning is printed outside the range the coefficients "
+        "were calibrated for (feed_per_tooth_range_mm of the coefficients file)",
+    )
     p.add_argument("--axial-depth-mm", type=float, required=True, help="axial depth a [mm]")
     p.add_argument(
         "--radial-depth-mm",
@@ -44,8 +64,20 @@ def add_parser(subparsers) -> None:
         help="radial depth a_e [mm] (default: the tool diameter, i.e. a slot)",
     )
     p.add_argument("--milling", default="down", help="up or down (default: down)")
-    p.add_argument("--step-deg", type=float, default=1.0, help="angular step [deg] (default 1)")
-    p.add_argument("--axial-slices", type=int, default=20, help="axial slices (default 20)")
+    p.add_argument(
+        "--step-deg",
+        type=float,
+        default=1.0,
+        help=f"angular step [deg], {STEP_DEG_RANGE[0]:g}..{STEP_DEG_RANGE[1]:g} (default 1); "
+        "the revolution gets round(360 / step) equal steps",
+    )
+    p.add_argument(
+        "--axial-slices",
+        type=int,
+        default=20,
+        help=f"axial slices, {SLICES_RANGE[0]}..{SLICES_RANGE[1]} (default 20); angles x teeth "
+        f"x slices may be at most {MAX_TABLE:,}",
+    )
     p.add_argument(
         "--extrapolate",
         action="store_true",
@@ -67,40 +99,83 @@ def _check_out(name: str | None, option: str) -> None:
         raise InputError(f"{option}: directory {Path(name).resolve().parent} does not exist")
 
 
+def _warn(text: str) -> None:
+    print(f"feedopt forces: warning: {text}", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     tool = load_tool(args.tool)
     table = load_coefficients(args.coeffs)
     rpm = _positive(args.rpm, "--rpm", "rpm")
-    feed = _positive(args.feed_mm_s, "--feed-mm-s", "mm/s") * 1e-3
-    a = _positive(args.axial_depth_mm, "--axial-depth-mm", "mm") * 1e-3
+    if rpm > MAX_RPM:
+        raise InputError(
+            f"--rpm {rpm:g} is above {MAX_RPM:g} rpm, faster than any milling spindle; give "
+            "the spindle speed in rpm (revolutions per minute)"
+        )
+    feed = _positive(args.feed_mm_s, "--feed-mm-s", "mm/s") * MM
+    a = _positive(args.axial_depth_mm, "--axial-depth-mm", "mm") * MM
     if a > tool.flute_length * (1 + 1e-12):
         raise InputError(
             f"--axial-depth-mm {args.axial_depth_mm:g} exceeds the flute length "
-            f"{tool.flute_length * 1e3:g} mm of tool {tool.name!r}"
+            f"{tool.flute_length / MM:g} mm of tool {tool.name!r}"
         )
     if args.radial_depth_mm is None:
         ae = tool.diameter
     else:
-        ae = _positive(args.radial_depth_mm, "--radial-depth-mm", "mm") * 1e-3
+        ae = _positive(args.radial_depth_mm, "--radial-depth-mm", "mm") * MM
         if ae > tool.diameter * (1 + 1e-12):
             raise InputError(
                 f"--radial-depth-mm {args.radial_depth_mm:g} exceeds the tool diameter "
-                f"{tool.diameter * 1e3:g} mm (use the diameter for a slot)"
+                f"{tool.diameter / MM:g} mm (use the diameter for a slot)"
             )
     if args.milling not in MILLING_MODES:
         raise InputError(f"--milling must be 'up' or 'down', got {args.milling!r}")
     step = args.step_deg
-    if not (math.isfinite(step) and 0.001 <= step <= 90):
-        raise InputError(f"--step-deg must be in [0.001, 90] deg, got {step!r}")
-    if args.axial_slices < 1:
-        raise InputError(f"--axial-slices must be >= 1, got {args.axial_slices}")
+    lo, hi = STEP_DEG_RANGE
+    if not (math.isfinite(step) and lo <= step <= hi):
+        raise InputError(f"--step-deg must be in [{lo:g}, {hi:g}] deg, got {step!r}")
+    lo_l, hi_l = SLICES_RANGE
+    if not lo_l <= args.axial_slices <= hi_l:
+        raise InputError(
+            f"--axial-slices must be a whole number in {lo_l}..{hi_l}, got {args.axial_slices}"
+        )
+    count = max(1, int(round(360.0 / step)))
+    size = count * tool.teeth * args.axial_slices
+    if size > MAX_TABLE:
+        raise InputError(
+            f"--step-deg {step:g} ({count} angles) x {tool.teeth} teeth (tool {tool.name!r}) x "
+            f"--axial-slices {args.axial_slices} = {size:,} slice evaluations, more than "
+            f"{MAX_TABLE:,} (memory); use a larger --step-deg or fewer --axial-slices"
+        )
+    c = feed_per_tooth(feed, rpm, tool.teeth)
+    radius = tool.diameter / 2
+    if c >= radius:
+        feed_max = radius * rpm * tool.teeth / 60.0
+        raise InputError(
+            f"--feed-mm-s {args.feed_mm_s:g} at {rpm:g} rpm with {tool.teeth} teeth is a feed "
+            f"per tooth of {c / MM:g} mm, not below the tool radius {radius / MM:g} mm: the "
+            "chip model h = c sin(phi) does not apply (milling feeds are typically 0.01-0.5 "
+            f"mm per tooth); use a feed below {feed_max / MM:.4g} mm/s at this speed"
+        )
     _check_out(args.out, "--out")
     _check_out(args.plot, "--plot")
     coeffs = table.at(rpm, extrapolate=args.extrapolate)
+    if rpm < table.rpm[0] or rpm > table.rpm[-1]:  # only reached with --extrapolate
+        near = table.rpm[0] if rpm < table.rpm[0] else table.rpm[-1]
+        _warn(
+            f"--rpm {rpm:g} is outside the calibrated speeds ({table.rpm[0]:g}..{table.rpm[-1]:g}"
+            f" rpm); --extrapolate holds the coefficients of {near:g} rpm"
+        )
+    if abs(count * step - 360.0) > 1e-9 * 360.0:
+        _warn(
+            f"--step-deg {step:g} does not divide 360 deg; using {count} steps of "
+            f"{360.0 / count:.6g} deg"
+        )
+    warning = feed_per_tooth_warning(table, c)
+    if warning:
+        _warn(warning)
 
-    c = feed_per_tooth(feed, rpm, tool.teeth)
     eng = peripheral_engagement(np.array([ae]), tool.diameter, a, args.milling)
-    count = max(1, int(round(360.0 / step)))
     angles = np.arange(count) * (2 * math.pi / count)
     split = milling_forces(tool, coeffs, eng, angles, axial_slices=args.axial_slices)
     f = split.forces(c)[0]

@@ -13,6 +13,7 @@ from feedopt.geometry.blends import BLEND_KINDS
 from feedopt.geometry.continuity import continuity_report
 from feedopt.geometry.path import REPEAT_TOL, build_lipb_path
 from feedopt.geometry.waypoints import read_waypoints_csv
+from feedopt.units import MM
 
 BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.square_wave,
            "builtin:line": waves.straight_line}
@@ -43,8 +44,18 @@ def add_parser(subparsers) -> None:
     p.add_argument("--drop-repeated", action="store_true",
                    help="drop repeated consecutive waypoints instead of refusing them")
     p.add_argument("--max-rows", type=int, default=40,
-                   help="junction rows printed (head and tail; default 40, 0 = all)")
+                   help="junction rows printed (head and tail; default 40, 0 = all, >= 0)")
     p.set_defaults(func=run)
+
+
+def _positive_mm(value: float, option: str, example: str) -> float:
+    """``value`` [mm] as metres; InputError unless it is a positive finite number."""
+    if not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{option} must be a positive, finite number of mm, got {value:g} (e.g. {option} "
+            f"{example})"
+        )
+    return value * MM
 
 
 def _size(args: argparse.Namespace) -> float:
@@ -53,14 +64,17 @@ def _size(args: argparse.Namespace) -> float:
             raise InputError(f"--tolerance is for bezier blends; {args.blend} takes --radius")
         if args.radius is None:
             raise InputError(f"blend {args.blend} needs --radius MM (e.g. --radius 12.7)")
-        return args.radius * 1e-3
+        return _positive_mm(args.radius, "--radius", "12.7")
     if args.blend in ("bezier4", "bezier5"):
         if args.radius is not None:
             raise InputError(f"--radius is for circle/varying_radius; {args.blend} takes "
                              "--tolerance MM")
         if args.tolerance is None:
             raise InputError(f"blend {args.blend} needs --tolerance MM (e.g. --tolerance 12.7)")
-        return args.tolerance * 1e-3
+        return _positive_mm(args.tolerance, "--tolerance", "12.7")
+    for value, option in ((args.radius, "--radius"), (args.tolerance, "--tolerance")):
+        if value is not None:
+            raise InputError(f"{option} sizes a blend; --blend none has none (drop {option})")
     return 0.0
 
 
@@ -72,8 +86,16 @@ def _check_out(name: str, option: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     size = _size(args)
-    if not (np.isfinite(args.spacing) and args.spacing > 0):
-        raise InputError(f"--spacing must be a positive number of mm, got {args.spacing}")
+    spacing = _positive_mm(args.spacing, "--spacing", "0.1")
+    if args.max_rows < 0:
+        raise InputError(
+            f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}"
+        )
+    if args.waypoints.startswith("builtin:") and args.waypoints not in BUILTIN:
+        raise InputError(
+            f"unknown built-in path {args.waypoints!r}; the built-ins are "
+            f"{', '.join(BUILTIN)} (or give a CSV file with columns x_mm,y_mm,z_mm)"
+        )
     for name, opt in ((args.out, "--out"), (args.plot, "--plot")):
         if name:
             _check_out(name, opt)
@@ -83,7 +105,6 @@ def run(args: argparse.Namespace) -> int:
         w = read_waypoints_csv(args.waypoints)
     n_raw = len(w)
     path = build_lipb_path(w, args.blend, size, drop_repeated=args.drop_repeated)
-    spacing = args.spacing * 1e-3
     n = int(np.ceil(path.length / spacing)) + 1
     if n > MAX_SAMPLES:
         raise InputError(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
@@ -20,6 +21,15 @@ from feedopt.robot.stiffness import (
     joint_stiffness,
 )
 
+#: Condition number (1 m length scale) above which a pose is near-singular: the default
+#: ``max_condition`` of :func:`feedopt.robot.ik.solve_path_ik`, so ``feedopt run`` refuses
+#: such a pose on a path (KR500-3 wrist: |A5| below about 3 deg).
+NEAR_SINGULAR = 100.0
+#: Above this the smallest singular value is rounding noise: the pose is exactly singular.
+SINGULAR = 1e12
+#: Joints whose share of the null-motion vector exceeds this are named in the warning.
+NULL_SHARE = 0.2
+
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``robot`` subcommand."""
@@ -30,7 +40,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "Print the TCP pose (KUKA X, Y, Z in mm, A, B, C in deg; TCP +z along the tool into "
             "the spindle), the 3x3 translational stiffness at the TCP (force-only loading, "
             "thesis Eq. 3.19/3.20), its principal directions and, with --force-n, the TCP "
-            "deflection. Write negative values with '=': --q-deg=-10,-90,90,0,45,0"
+            "deflection. Write negative values with '=': --q-deg=-10,-90,90,0,45,0. "
+            f"A warning goes to stderr when the pose is near-singular (Jacobian condition "
+            f"number > {NEAR_SINGULAR:g}, the limit above which feedopt run refuses a path "
+            f"sample) or singular (> {SINGULAR:g}: rank-deficient to rounding), naming the "
+            "joints that can move without moving the TCP."
         ),
     )
     p.add_argument("robot_dir", metavar="ROBOT_DIR", help="directory with robot.yaml and URDF")
@@ -38,6 +52,36 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force-n", help="force on the tool at the TCP, base frame: fx,fy,fz [N]")
     p.add_argument("--stiffness", default="dpp", help="joint stiffness set (default: dpp)")
     p.set_defaults(func=run)
+
+
+def singularity_warning(jacobian: np.ndarray, condition: float) -> str | None:
+    """Warning text for a (near-)singular pose, or None (``jacobian``: (6, dof), 1 m scale).
+
+    The right singular vector of the smallest singular value is the joint motion that moves
+    the TCP least; the joints with a large share of it are named (joints 4-6 only: a wrist
+    singularity, e.g. A4 and A6 aligned at A5 = 0 on a KUKA).
+    """
+    if not condition > NEAR_SINGULAR:
+        return None
+    vt = np.linalg.svd(jacobian, full_matrices=False)[2]  # vt[-1]: smallest sigma
+    null = vt[-1] / np.linalg.norm(vt[-1])
+    joints = [int(j) + 1 for j in np.flatnonzero(np.abs(null) > NULL_SHARE)]
+    kind = "singular" if condition > SINGULAR else "near-singular"
+    limit = SINGULAR if kind == "singular" else NEAR_SINGULAR
+    dof = jacobian.shape[1]
+    wrist = dof == 6 and bool(joints) and min(joints) >= 4
+    where = "wrist" if wrist else "arm (shoulder/elbow)"
+    motion = " ".join(f"{null[j - 1]:+.3f} q{j}" for j in joints)
+    text = (
+        f"{kind} pose, {where} singularity: Jacobian condition number {condition:.3g} > "
+        f"{limit:g}; joints {', '.join(map(str, joints))} can move together ({motion}) with "
+        "almost no TCP motion. "
+    )
+    if kind == "singular":
+        text += "The condition number printed is rounding noise (infinite in exact arithmetic). "
+    return text + (
+        f"feedopt run refuses path samples whose condition number exceeds {NEAR_SINGULAR:g}."
+    )
 
 
 def _floats(text: str, n: int, option: str) -> np.ndarray:
@@ -79,7 +123,11 @@ def run(args: argparse.Namespace) -> int:
         f"TCP pose: X={xyz[0]:.3f} Y={xyz[1]:.3f} Z={xyz[2]:.3f} mm  "
         f"A={abc[0]:.3f} B={abc[1]:.3f} C={abc[2]:.3f} deg"
     )
-    print(f"Jacobian condition number (1 m length scale): {jacobian_condition_number(jac)[0]:.2f}")
+    cond = float(jacobian_condition_number(jac)[0])
+    print(f"Jacobian condition number (1 m length scale): {cond:.2f}")
+    warning = singularity_warning(jac[0], cond)
+    if warning:
+        print(f"feedopt robot: warning: {warning}", file=sys.stderr)
     print("translational stiffness at the TCP [N/mm] (base axes x, y, z):")
     for row in k3 * 1e-3:
         print("  " + " ".join(f"{v:12.2f}" for v in row))

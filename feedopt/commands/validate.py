@@ -1,8 +1,17 @@
-"""``feedopt validate SCENARIO.yaml``: check a scenario without planning it."""
+"""``feedopt validate SCENARIO.yaml``: check a scenario without planning it.
+
+``feedopt validate --schema`` prints the field reference (Markdown) instead; ``--out FILE``
+writes it to FILE. ``--schema`` takes no scenario: ``--schema x.yaml`` is refused (exit 2)
+rather than guessed at, because neither reading (validate it? ignore it?) nor writing
+(overwrite the scenario with the reference?) is what every user means.
+"""
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
+
+REFERENCE_SUFFIXES = (".md", ".txt", ".markdown")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -11,10 +20,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="check a scenario file (schema, referenced files, path geometry)",
         description="Validate SCENARIO.yaml: schema and units, that every referenced file "
         "exists and loads, and that the path can be built (waypoints, blends that fit). "
-        "With --schema, print the reference of every scenario field instead.",
+        "With --schema (and no SCENARIO), print the reference of every scenario field "
+        "instead, as Markdown; add --out FILE.md to write it to a file.",
     )
-    p.add_argument("scenario", nargs="?", help="scenario YAML file")
-    p.add_argument("--schema", action="store_true", help="print the field reference")
+    p.add_argument("scenario", nargs="?", help="scenario YAML file (not with --schema)")
+    p.add_argument(
+        "--schema",
+        action="store_true",
+        help="print the field reference instead of validating; takes no SCENARIO",
+    )
+    p.add_argument(
+        "--out",
+        metavar="FILE",
+        help="with --schema: write the reference to FILE (.md or .txt) instead of printing it",
+    )
     p.set_defaults(func=run)
 
 
@@ -23,11 +42,44 @@ def run(args: argparse.Namespace) -> int:
     from feedopt.scenario import schema_reference
 
     if args.schema:
+        if args.scenario:
+            raise InputError(
+                f"--schema prints the field reference and takes no scenario file, got "
+                f"{args.scenario!r}; run 'feedopt validate {args.scenario}' to check it, or "
+                "'feedopt validate --schema --out reference.md' to write the reference to a "
+                "file"
+            )
+        if args.out:
+            _write_reference(args.out, schema_reference())
+            print(f"wrote {args.out}")
+            return 0
         print(schema_reference(), end="")
         return 0
+    if args.out:
+        raise InputError(
+            "--out writes the --schema reference; validating a scenario writes nothing (use "
+            "--schema --out FILE.md, or drop --out)"
+        )
     if not args.scenario:
         raise InputError("give a scenario file (or --schema)")
     from feedopt.runner import validate_scenario
 
     print(validate_scenario(args.scenario))
     return 0
+
+
+def _write_reference(name: str, text: str) -> None:
+    from feedopt.errors import InputError
+
+    out = Path(name)
+    if out.suffix.lower() not in REFERENCE_SUFFIXES:
+        raise InputError(
+            f"--out {name!r}: the reference is Markdown text, not a scenario; give a file "
+            f"ending in {' or '.join(REFERENCE_SUFFIXES[:2])} (e.g. --out reference.md)"
+        )
+    parent = out.resolve().parent
+    if not parent.is_dir():
+        raise InputError(f"--out: directory {parent} does not exist")
+    if out.is_dir():
+        raise InputError(f"--out {name!r} is a directory; give a file name (e.g. reference.md)")
+    out.write_text(text)

@@ -24,6 +24,7 @@ from numpy.typing import ArrayLike
 from feedopt.errors import InputError
 from feedopt.geometry import arclength, blends
 from feedopt.geometry.blends import BLEND_KINDS
+from feedopt.units import MM
 
 SEGMENT_KINDS = ("line", "circle", "bezier4", "bezier5", "varying_radius")
 REPEAT_TOL = 1e-9  # consecutive waypoints closer than this [m] are "repeated"
@@ -293,7 +294,8 @@ class Path:
     def sample(self, spacing: float) -> PathPoints:
         """Uniform samples in s: n = ceil(length / spacing) + 1, both ends included."""
         if not (np.isfinite(spacing) and spacing > 0):
-            raise InputError(f"sample spacing must be a positive number, got {spacing}")
+            raise InputError(
+                f"sample spacing must be a positive, finite number of mm, got {spacing / MM:g} mm")
         n = int(np.ceil(self.length / spacing - 1e-9)) + 1
         return self.evaluate(np.linspace(0.0, self.length, max(n, 2)))
 
@@ -331,7 +333,7 @@ def _validate_waypoints(waypoints: ArrayLike, drop_repeated: bool
     bad = np.flatnonzero(~np.all(np.isfinite(w), axis=1))
     if bad.size:
         raise InputError(
-            f"waypoint {bad[0]} is not finite ({w[bad[0]].tolist()}); "
+            f"waypoint {bad[0]} is not finite: {_mm(w[bad[0]])}; "
             f"{bad.size} waypoint(s) contain NaN or inf")
     if len(w) < 2:
         raise InputError(f"a path needs at least two distinct waypoints, got {len(w)}")
@@ -388,7 +390,9 @@ def build_lipb_path(waypoints: np.ndarray, blend: str, size: float, *,
         raise InputError(f"unknown blend {blend!r}; choose one of {', '.join(BLEND_KINDS)}")
     if blend != "none" and not (np.isfinite(size) and size > 0):
         what = "radius" if blend in ("circle", "varying_radius") else "tolerance"
-        raise InputError(f"blend {blend} needs a positive, finite {what}, got {size}")
+        raise InputError(
+            f"blend {blend} needs a positive, finite {what} in mm, got {size / MM:g} mm "
+            "(e.g. 12.7 mm)")
     w, index, _ = _validate_waypoints(waypoints, drop_repeated)
     n = len(w)
     seg_vec = np.diff(w, axis=0)

@@ -19,11 +19,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from feedopt.errors import InputError
+from feedopt.units import MM
 
 
 def _check(length: float, height: float, waves: int) -> None:
     if not (np.isfinite(length) and length > 0 and np.isfinite(height) and height > 0):
-        raise InputError(f"wave length and height must be positive, got {length}, {height}")
+        raise InputError(
+            f"wave length and height must be positive, finite numbers of mm, got "
+            f"{length / MM:g} mm and {height / MM:g} mm")
     if int(waves) != waves or waves < 1:
         raise InputError(f"number of waves must be a positive integer, got {waves}")
 
@@ -58,5 +61,15 @@ def straight_line(start: ArrayLike = (0.0, 0.0, 0.0),
     y goes 0 -> 9.525 mm (radial immersion 0 -> half of the 19.05 mm cutter)."""
     pts = np.array([np.asarray(start, dtype=float), np.asarray(end, dtype=float)])
     if pts.shape != (2, 3) or not np.all(np.isfinite(pts)):
-        raise InputError(f"start and end must be finite (x, y, z) points, got {pts.tolist()}")
+        raise InputError(
+            f"start and end must be finite (x, y, z) points, got {_mm(start)} and {_mm(end)}")
     return pts
+
+
+def _mm(p: ArrayLike) -> str:
+    """A point given in metres, for messages: ``(x, y, z) mm`` (or its repr if not numeric)."""
+    try:
+        v = np.asarray(p, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return repr(p)
+    return "(" + ", ".join(f"{x / MM:.6g}" for x in v) + ") mm"

@@ -170,7 +170,18 @@ def calibrate(rows: list[SlotForceRow], teeth: int, axial_depth: float) -> list[
 def calibration_table(
     cals: list[SpeedCalibration], material: str = "", tool: str = "", source: str = ""
 ) -> CoefficientTable:
-    """Collect per-speed calibrations into a :class:`CoefficientTable`."""
+    """Collect per-speed calibrations into a :class:`CoefficientTable`.
+
+    Its ``feed_per_tooth_range`` is the smallest and largest feed per tooth of all the cuts
+    (every speed), the range in which the fitted lines of Eq. 3.24 were observed.
+    """
+    if not cals:
+        raise InputError("calibration table: no calibrated speed")
+    c = np.concatenate([cal.feed_per_tooth for cal in cals])
     return CoefficientTable.from_speeds(
-        {cal.rpm: cal.coeffs for cal in cals}, material=material, tool=tool, source=source
+        {cal.rpm: cal.coeffs for cal in cals},
+        material=material,
+        tool=tool,
+        source=source,
+        feed_per_tooth_range=(float(c.min()), float(c.max())),
     )

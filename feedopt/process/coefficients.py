@@ -13,6 +13,20 @@ File format (``shared/design.md``, written by ``feedopt calibrate --out``)::
         kte_n_m: 7.42e3
         kre_n_m: 8.45e3
         kae_n_m: -2.13e3
+    feed_per_tooth_range_mm: [0.01905, 0.12705]   # optional
+
+``feed_per_tooth_range_mm`` (optional, written by ``feedopt calibrate --out``) is the smallest
+and largest feed per tooth of the calibration cuts over all speeds; the linear model
+F = F_c c + F_e (Eq. 3.24) is only known to hold there, so a feed per tooth outside it earns a
+warning (:func:`feed_per_tooth_warning`), not an error. Files without it stay valid.
+
+Signs (thesis 3.6.1): the tangential and radial cutting coefficients are > 0 (the chip pushes
+the tool back against the cutting speed and away from the surface); the tangential and radial
+edge coefficients are >= 0 (0 means "no edge force", a legitimate simplification). A negative
+value gives smaller forces, hence faster plans that only look "verified" against the same
+wrong model, so :func:`load_coefficients` refuses it. The axial coefficients Kac and Kae may
+have either sign: their sign only states the direction of the axial force (+z times
+``Kac h + Kae``, Eq. 3.25), which depends on the helix hand and the sign convention.
 """
 
 from __future__ import annotations
@@ -26,6 +40,13 @@ import yaml
 
 from feedopt.errors import InputError
 from feedopt.process._io import number, read_yaml_mapping
+from feedopt.units import MM
+
+#: Optional file-level YAML key of the calibrated feed-per-tooth range ``[min, max]`` [mm].
+RANGE_KEY = "feed_per_tooth_range_mm"
+
+#: Relative slack of the range check (the file stores 6 significant digits).
+RANGE_SLACK = 1e-5
 
 #: YAML key of each CuttingCoefficients field, in field order.
 FILE_KEYS = {
@@ -45,6 +66,11 @@ class CuttingCoefficients:
     Tangential, radial and axial, in the sign convention of thesis Eq. 3.25 / Table 3.3:
     the axial force on the tool is ``+z`` of the force-model frame times ``Kac h + Kae``, so the
     negative Table 3.3 values give the downward (``-z``) force measured in slotting.
+
+    Physical signs (checked by :func:`sign_problems`, enforced by :func:`load_coefficients`
+    and ``feedopt calibrate``, not here, so that unit or test coefficient sets can be built):
+    ``ktc > 0``, ``krc > 0``, ``kte >= 0``, ``kre >= 0``; ``kac`` and ``kae`` may have either
+    sign, which is only the direction convention of the axial force (Eq. 3.25).
     """
 
     ktc: float
@@ -65,11 +91,43 @@ class CuttingCoefficients:
         return np.array(astuple(self), dtype=float)
 
 
+#: Sign rule per coefficient: (must be > 0, what the rule means); Kac and Kae are free.
+SIGN_RULES = {
+    "ktc": (True, "the tangential cutting force opposes the cutting speed"),
+    "krc": (True, "the radial cutting force pushes the tool away from the cut surface"),
+    "kte": (False, "0 means no tangential edge force"),
+    "kre": (False, "0 means no radial edge force"),
+}
+
+AXIAL_SIGN_NOTE = (
+    "Kac and Kae may have either sign (their sign is the direction convention of the axial "
+    "force, thesis Eq. 3.25)"
+)
+
+
+def sign_problems(coeffs: CuttingCoefficients) -> list[str]:
+    """Coefficients that break the sign rules of thesis 3.6.1, one phrase each (SI values).
+
+    ``Ktc`` and ``Krc`` must be > 0, ``Kte`` and ``Kre`` >= 0; ``Kac`` and ``Kae`` are not
+    checked (either sign is a valid convention). Empty list when every sign is physical.
+    """
+    out = []
+    for name, (strict, why) in SIGN_RULES.items():
+        v = float(getattr(coeffs, name))
+        if (v <= 0) if strict else (v < 0):
+            rule = "> 0" if strict else ">= 0"
+            unit = "N/m^2" if name.endswith("c") else "N/m"
+            out.append(f"{FILE_KEYS[name]} = {v:.6g} {unit} (must be {rule}: {why})")
+    return out
+
+
 @dataclass(frozen=True)
 class CoefficientTable:
     """Coefficients calibrated at several spindle speeds (strictly increasing ``rpm``).
 
     ``values[i]`` holds ``(ktc, krc, kac, kte, kre, kae)`` at ``rpm[i]``.
+    ``feed_per_tooth_range`` is ``(min, max)`` feed per tooth of the calibration cuts [m], or
+    None when unknown (files without ``feed_per_tooth_range_mm``).
     """
 
     rpm: np.ndarray
@@ -77,6 +135,7 @@ class CoefficientTable:
     material: str = ""
     tool: str = ""
     source: str = ""
+    feed_per_tooth_range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         rpm = np.asarray(self.rpm, dtype=float).reshape(-1)
@@ -91,6 +150,14 @@ class CoefficientTable:
             )
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "values", values)
+        if self.feed_per_tooth_range is not None:
+            lo, hi = (float(v) for v in self.feed_per_tooth_range)
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+                raise InputError(
+                    f"coefficient table: feed per tooth range must be 0 < min <= max, got "
+                    f"[{lo / MM:g}, {hi / MM:g}] mm"
+                )
+            object.__setattr__(self, "feed_per_tooth_range", (lo, hi))
 
     @classmethod
     def from_speeds(
@@ -99,6 +166,7 @@ class CoefficientTable:
         material: str = "",
         tool: str = "",
         source: str = "",
+        feed_per_tooth_range: tuple[float, float] | None = None,
     ) -> CoefficientTable:
         """Build a table from ``{rpm: CuttingCoefficients}`` (any order)."""
         rpms = sorted(speeds)
@@ -108,6 +176,7 @@ class CoefficientTable:
             material=material,
             tool=tool,
             source=source,
+            feed_per_tooth_range=feed_per_tooth_range,
         )
 
     def at(self, rpm: float, extrapolate: bool = False) -> CuttingCoefficients:
@@ -133,8 +202,51 @@ class CoefficientTable:
         return CuttingCoefficients(*vals)
 
 
+def feed_per_tooth_warning(table: CoefficientTable, feed_per_tooth_m: float) -> str | None:
+    """Warning text when a feed per tooth [m] lies outside the table's calibrated range.
+
+    None when it is inside (within a relative ``RANGE_SLACK``) or when the table does not
+    record its range. The text is in mm and names the material when the table has one; the
+    caller adds its own prefix (``feedopt <command>: warning: ``).
+    """
+    rng = table.feed_per_tooth_range
+    c = float(feed_per_tooth_m)
+    if rng is None or not math.isfinite(c):
+        return None
+    lo, hi = rng
+    if lo * (1 - RANGE_SLACK) <= c <= hi * (1 + RANGE_SLACK):
+        return None
+    side = "below" if c < lo else "above"
+    of = f" of {table.material!r}" if table.material else ""
+    return (
+        f"feed per tooth {c / MM:.5g} mm is {side} the range the cutting coefficients{of} were "
+        f"calibrated for ({lo / MM:.5g}..{hi / MM:.5g} mm per tooth); the linear force model "
+        "(thesis Eq. 3.24) is extrapolated there and the forces may be wrong"
+    )
+
+
+def _range_of(data: dict, where: str) -> tuple[float, float] | None:
+    if RANGE_KEY not in data or data[RANGE_KEY] is None:
+        return None
+    raw = data[RANGE_KEY]
+    at = f"{where}.{RANGE_KEY}"
+    if not isinstance(raw, list) or len(raw) != 2:
+        raise InputError(f"{at}: expected [min, max] in mm per tooth, got {raw!r}")
+    lo, hi = (number({"v": v}, "v", at) for v in raw)
+    if not 0 < lo <= hi:
+        raise InputError(
+            f"{at}: expected 0 < min <= max (mm per tooth), got [{lo:g}, {hi:g}]; e.g. "
+            "[0.019, 0.127] for feeds of 0.019 to 0.127 mm per tooth"
+        )
+    return lo * MM, hi * MM
+
+
 def load_coefficients(path: str | Path) -> CoefficientTable:
-    """Read a coefficients YAML file (format in the module docstring) into SI units."""
+    """Read a coefficients YAML file (format in the module docstring) into SI units.
+
+    Refuses coefficients with unphysical signs (:func:`sign_problems`): InputError naming the
+    file, the speed entry and the field.
+    """
     data = read_yaml_mapping(path, "coefficients")
     where = f"coefficients file {str(path)!r}"
     speeds = data.get("speeds")
@@ -151,12 +263,22 @@ def load_coefficients(path: str | Path) -> CoefficientTable:
         if rpm in table:
             raise InputError(f"{at}.rpm: speed {rpm:g} rpm listed twice")
         values = {k: number(entry, key, at) for k, key in FILE_KEYS.items()}
-        table[rpm] = CuttingCoefficients(**values)
+        coeffs = CuttingCoefficients(**values)
+        problems = sign_problems(coeffs)
+        if problems:
+            raise InputError(
+                f"{at} (rpm {rpm:g}): {'; '.join(problems)}. A wrong sign gives smaller "
+                "forces and faster plans that only look verified; check the sign convention "
+                "(forces on the tool, thesis Eq. 3.25) or recalibrate. "
+                f"{AXIAL_SIGN_NOTE}."
+            )
+        table[rpm] = coeffs
     return CoefficientTable.from_speeds(
         table,
         material=str(data.get("material", "")),
         tool=str(data.get("tool", "")),
         source=str(data.get("source", "")),
+        feed_per_tooth_range=_range_of(data, where),
     )
 
 
@@ -175,8 +297,17 @@ def save_coefficients(table: CoefficientTable, path: str | Path) -> None:
         doc["tool"] = table.tool
     if table.source:
         doc["source"] = table.source
+    header = ""
+    if table.feed_per_tooth_range is not None:
+        lo, hi = table.feed_per_tooth_range
+        # 6 significant digits: the check's RANGE_SLACK keeps the cuts' own feeds inside
+        doc[RANGE_KEY] = [float(f"{lo / MM:.6g}"), float(f"{hi / MM:.6g}")]
+        header = (
+            f"# {RANGE_KEY}: smallest and largest feed per tooth of the calibration cuts [mm];\n"
+            "# outside it the linear force model is extrapolated (feedopt warns).\n"
+        )
     doc["speeds"] = speeds
-    Path(path).write_text(yaml.safe_dump(doc, sort_keys=False, width=1000))
+    Path(path).write_text(header + yaml.safe_dump(doc, sort_keys=False, width=1000))
 
 
 def _plain(x: float) -> float | int:

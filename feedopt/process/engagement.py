@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.units import MM
 
 MILLING_MODES = ("up", "down")
 
@@ -57,35 +58,45 @@ class Engagement:
 
 def validate_engagement(eng: Engagement, flute_length: float | None = None) -> None:
     """Raise InputError naming the first bad sample (angles out of [0, pi], depth <= 0, ...)."""
+    # (bad mask, field, scale from SI to the unit shown, unit, rule)
     checks = [
         (
             ~np.isfinite(eng.entry) | (eng.entry < 0) | (eng.entry > np.pi),
             "entry",
-            "rad",
-            "must be in [0, pi]",
+            180.0 / np.pi,
+            "deg",
+            "must be in [0, 180] deg",
         ),
         (
             ~np.isfinite(eng.exit) | (eng.exit < eng.entry) | (eng.exit > np.pi),
             "exit",
-            "rad",
-            "must be in [entry, pi]",
+            180.0 / np.pi,
+            "deg",
+            "must be in [entry, 180] deg",
         ),
-        (~np.isfinite(eng.axial_depth) | (eng.axial_depth <= 0), "axial_depth", "m", "must be > 0"),
+        (
+            ~np.isfinite(eng.axial_depth) | (eng.axial_depth <= 0),
+            "axial_depth",
+            1.0 / MM,
+            "mm",
+            "must be > 0",
+        ),
     ]
     if flute_length is not None:
         checks.append(
             (
                 eng.axial_depth > flute_length * (1 + 1e-12),
                 "axial_depth",
-                "m",
-                f"exceeds the tool's flute length {flute_length * 1e3:g} mm",
+                1.0 / MM,
+                "mm",
+                f"exceeds the tool's flute length {flute_length / MM:g} mm",
             )
         )
-    for bad, name, unit, rule in checks:
+    for bad, name, scale, unit, rule in checks:
         if np.any(bad):
             i = int(np.argmax(bad))
-            value = getattr(eng, name)[i]
-            raise InputError(f"engagement.{name} at sample {i} is {value!r} {unit}: {rule}")
+            value = float(getattr(eng, name)[i]) * scale
+            raise InputError(f"engagement.{name} at sample {i} is {value:.6g} {unit}: {rule}")
 
 
 def slot_engagement(n: int, axial_depth: float | np.ndarray) -> Engagement:
@@ -113,7 +124,7 @@ def peripheral_engagement(
     if milling not in MILLING_MODES:
         raise InputError(f"milling must be 'up' or 'down', got {milling!r}")
     if not (np.isfinite(diameter) and diameter > 0):
-        raise InputError(f"tool diameter must be > 0, got {diameter!r} m")
+        raise InputError(f"tool diameter must be > 0 mm, got {diameter / MM:g} mm")
     ae = np.atleast_1d(np.asarray(radial_depth, dtype=float))
     if ae.ndim != 1:
         raise InputError(f"radial_depth must be a 1-D array, got shape {ae.shape}")
@@ -151,7 +162,7 @@ def radial_depth_profile(s: np.ndarray, table_s: np.ndarray, table_depth: np.nda
     bad = ~np.isfinite(td) | (td < 0)
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise InputError(f"radial depth table: depth[{i}] is {td[i]!r} m, must be >= 0")
+        raise InputError(f"radial depth table: depth[{i}] is {td[i] / MM:g} mm, must be >= 0")
     tol = 1e-6
     out = (s < ts[0] - tol) | (s > ts[-1] + tol) | ~np.isfinite(s)
     if np.any(out):

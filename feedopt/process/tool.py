@@ -8,6 +8,7 @@ from pathlib import Path
 
 from feedopt.errors import InputError
 from feedopt.process._io import number, read_yaml_mapping
+from feedopt.units import MM
 
 
 @dataclass(frozen=True)
@@ -47,13 +48,15 @@ def validate_tool(tool: Tool, where: str = "tool") -> None:
     if not (isinstance(tool.teeth, int) and not isinstance(tool.teeth, bool)) or tool.teeth < 1:
         raise InputError(f"{where}.teeth must be a whole number >= 1, got {tool.teeth!r}")
     if not (math.isfinite(tool.diameter) and tool.diameter > 0):
-        raise InputError(f"{where}.diameter must be > 0, got {tool.diameter!r} m")
+        raise InputError(f"{where}.diameter must be > 0 mm, got {tool.diameter / MM:g} mm")
     if not (math.isfinite(tool.helix) and 0.0 <= tool.helix < math.pi / 2):
         raise InputError(
             f"{where}.helix must be in [0, 90) deg, got {math.degrees(tool.helix)!r} deg"
         )
     if not (math.isfinite(tool.flute_length) and tool.flute_length > 0):
-        raise InputError(f"{where}.flute_length must be > 0, got {tool.flute_length!r} m")
+        raise InputError(
+            f"{where}.flute_length must be > 0 mm, got {tool.flute_length / MM:g} mm"
+        )
 
 
 def load_tool(path: str | Path) -> Tool:
@@ -73,11 +76,11 @@ def load_tool(path: str | Path) -> Tool:
     helix_deg = number(data, "helix_deg", where)
     flute_mm = number(data, "flute_length_mm", where)
     if diameter_mm <= 0:
-        raise InputError(f"{where}.diameter_mm: must be > 0, got {diameter_mm!r}")
+        raise InputError(f"{where}.diameter_mm: must be > 0 mm, got {diameter_mm:g}")
     if not 0 <= helix_deg < 90:
-        raise InputError(f"{where}.helix_deg: must be in [0, 90), got {helix_deg!r}")
+        raise InputError(f"{where}.helix_deg: must be in [0, 90) deg, got {helix_deg:g}")
     if flute_mm <= 0:
-        raise InputError(f"{where}.flute_length_mm: must be > 0, got {flute_mm!r}")
+        raise InputError(f"{where}.flute_length_mm: must be > 0 mm, got {flute_mm:g}")
     return Tool(
         name=str(data.get("name", Path(path).stem)),
         diameter=diameter_mm * 1e-3,

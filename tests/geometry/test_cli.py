@@ -85,3 +85,53 @@ def test_missing_output_directory(tmp_path, capsys):
     rc = main(["path", "builtin:triangle", "--blend", "none",
                "--out", str(tmp_path / "no" / "x.csv")])
     assert rc == 2 and "does not exist" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--blend", "none", "--max-rows", "-5"],
+     "--max-rows must be >= 0 (0 = all junction rows), got -5"),
+    (["--radius", "-3"], "--radius must be a positive, finite number of mm, got -3 "
+     "(e.g. --radius 12.7)"),
+    (["--radius", "0"], "--radius must be a positive, finite number of mm, got 0"),
+    (["--radius", "nan"], "--radius must be a positive, finite number of mm, got nan"),
+    (["--blend", "bezier5", "--tolerance", "inf"],
+     "--tolerance must be a positive, finite number of mm, got inf"),
+    (["--blend", "bezier4", "--tolerance", "-1"],
+     "--tolerance must be a positive, finite number of mm, got -1"),
+    (["--radius", "5", "--spacing", "-0.1"],
+     "--spacing must be a positive, finite number of mm, got -0.1"),
+    (["--radius", "5", "--spacing", "inf"],
+     "--spacing must be a positive, finite number of mm, got inf"),
+    (["--blend", "none", "--radius", "5"], "--radius sizes a blend; --blend none has none"),
+])
+def test_numeric_options_refused(tmp_path, capsys, args, message):
+    out = tmp_path / "o.csv"
+    assert main(["path", "builtin:triangle", *args, "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"feedopt path: error: {message}")
+    assert captured.out == ""
+    assert not out.exists()
+
+
+def _junction_rows(text):
+    return [ln for ln in text.splitlines() if ln.strip()[:1].isdigit()]
+
+
+def test_max_rows_zero_prints_all_and_small_values_truncate(capsys):
+    args = ["path", "builtin:triangle", "--radius", "5"]  # 5 corners, 10 junctions
+    assert main(args + ["--max-rows", "0"]) == 0
+    out = capsys.readouterr().out
+    assert [int(r.split()[0]) for r in _junction_rows(out)] == list(range(10))
+    assert "omitted" not in out
+    assert main(args + ["--max-rows", "4"]) == 0
+    out = capsys.readouterr().out
+    assert [int(r.split()[0]) for r in _junction_rows(out)] == [0, 1, 8, 9]
+    assert "(6 junctions omitted)" in out
+
+
+def test_unknown_builtin_lists_the_builtins(capsys):
+    assert main(["path", "builtin:hexagon", "--blend", "none"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown built-in path 'builtin:hexagon'" in err
+    assert "builtin:triangle, builtin:square, builtin:line" in err
+    assert "x_mm,y_mm,z_mm" in err

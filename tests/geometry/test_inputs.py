@@ -107,3 +107,30 @@ def test_csv_errors(tmp_path, text, match):
 def test_csv_missing_file(tmp_path):
     with pytest.raises(InputError, match="does not exist"):
         read_waypoints_csv(tmp_path / "nope.csv")
+
+
+@pytest.mark.parametrize(("blend", "size", "message"), [
+    ("circle", -0.003, "blend circle needs a positive, finite radius in mm, got -3 mm"),
+    ("varying_radius", np.nan, "varying_radius needs a positive, finite radius in mm, got nan mm"),
+    ("bezier5", -0.0127, "bezier5 needs a positive, finite tolerance in mm, got -12.7 mm"),
+])
+def test_blend_size_message_in_mm(blend, size, message):
+    with pytest.raises(InputError) as exc:
+        build_lipb_path(waves.triangle_wave(), blend, size)
+    assert message in str(exc.value)
+    assert "0.003" not in str(exc.value) and "0.0127" not in str(exc.value)
+
+
+def test_other_geometry_messages_in_mm():
+    w = waves.triangle_wave()
+    w[4, 1] = np.nan
+    with pytest.raises(InputError, match=r"waypoint 4 is not finite: \(203\.2, nan, 0\) mm"):
+        build_lipb_path(w, "circle", 0.01)
+    path = build_lipb_path(waves.triangle_wave(), "none", 0.0)
+    with pytest.raises(InputError, match=r"spacing must be a positive, finite number of mm, "
+                                         r"got -0\.1 mm"):
+        path.sample(-1e-4)
+    with pytest.raises(InputError, match="got -100 mm and 76.2 mm"):
+        waves.triangle_wave(length=-0.1)
+    with pytest.raises(InputError, match=r"got \(0, 0, 0\) mm and \(inf, 0, 0\) mm"):
+        waves.straight_line(end=(np.inf, 0.0, 0.0))

@@ -146,3 +146,22 @@ def test_bad_coefficient_file(tmp_path, text, match):
         load_coefficients(p)
     with pytest.raises(InputError, match="does not exist"):
         load_coefficients(tmp_path / "missing.yaml")
+
+
+def test_engagement_and_tool_messages_in_user_units():
+    from feedopt.process import Engagement, Tool
+
+    with pytest.raises(InputError, match=r"engagement\.axial_depth at sample 1 is -1\.5 mm: "
+                                         r"must be > 0"):
+        Engagement(np.zeros(2), np.full(2, math.pi), np.array([1e-3, -1.5e-3]))
+    with pytest.raises(InputError, match=r"engagement\.exit at sample 0 is 200 deg: "
+                                         r"must be in \[entry, 180\] deg"):
+        Engagement(np.zeros(1), np.radians([200.0]), np.array([1e-3]))
+    with pytest.raises(InputError, match=r"tool diameter must be > 0 mm, got -19\.05 mm"):
+        peripheral_engagement(np.array([1e-3]), -D, 1e-3, "up")
+    with pytest.raises(InputError, match=r"depth\[1\] is -2 mm, must be >= 0"):
+        radial_depth_profile(np.array([0.0]), [0.0, 0.1], [0.0, -2e-3])
+    with pytest.raises(InputError, match=r"tool\.diameter must be > 0 mm, got -19\.05 mm"):
+        Tool("t", -D, 2, 0.5, 0.02)
+    with pytest.raises(InputError, match=r"tool\.flute_length must be > 0 mm, got -20 mm"):
+        Tool("t", D, 2, 0.5, -0.02)

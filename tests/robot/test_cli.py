@@ -35,3 +35,56 @@ def test_robot_command_bad_input_exit_2(capsys, tmp_path):
     assert main(["robot", str(KUKA_DIR), "--q-deg=0,-60,90,0,45,0", "--stiffness", "x"]) == 2
     assert main(["robot", str(tmp_path), "--q-deg=0,-60,90,0,45,0"]) == 2
     assert main(["robot", str(KUKA_DIR), "--q-deg=0,-60,90,0,45,0", "--force-n", "a,b"]) == 2
+
+
+def test_robot_command_warns_at_exact_wrist_singularity(capsys):
+    assert main(["robot", str(KUKA_DIR), "--q-deg=0,-65,108,0,0,0", "--force-n", "0,100,0"]) == 0
+    captured = capsys.readouterr()
+    cond = float(captured.out.split("condition number (1 m length scale): ")[1].split()[0])
+    assert cond > 1e12  # rounding noise of an exactly singular Jacobian
+    assert "deflection [mm]" in captured.out and "principal stiffnesses" in captured.out
+    err = captured.err
+    assert err.startswith("feedopt robot: warning: singular pose, wrist singularity: Jacobian "
+                          f"condition number {cond:.3g} > 1e+12; joints 4, 6 can move together")
+    assert "(-0.707 q4 +0.707 q6)" in err or "(+0.707 q4 -0.707 q6)" in err
+    assert "rounding noise" in err
+    assert "feedopt run refuses path samples whose condition number exceeds 100" in err
+    assert err.count("\n") == 1
+
+
+def test_robot_command_warns_near_wrist_singularity(capsys):
+    assert main(["robot", str(KUKA_DIR), "--q-deg=0,-65,108,0,1,0"]) == 0
+    captured = capsys.readouterr()
+    assert "condition number (1 m length scale): 316.57" in captured.out
+    err = captured.err
+    assert err.startswith("feedopt robot: warning: near-singular pose, wrist singularity: "
+                          "Jacobian condition number 317 > 100; joints 4, 6 can move together")
+    assert "rounding noise" not in err
+
+
+def test_robot_command_names_an_arm_singularity(capsys):
+    # A3 = -atan(55 / 1025): forearm and wrist centre in line with the upper arm (elbow)
+    assert main(["robot", str(KUKA_DIR), "--q-deg=0,-65,-3.0714621,0,47,0"]) == 0
+    err = capsys.readouterr().err
+    assert "near-singular pose, arm (shoulder/elbow) singularity" in err
+    assert "joints 2, 3, 5 can move together" in err
+
+
+def test_robot_command_quiet_away_from_singularities(capsys):
+    q = ",".join(f"{v}" for v in Q_START_DEG)
+    assert main(["robot", str(KUKA_DIR), f"--q-deg={q}"]) == 0
+    assert capsys.readouterr().err == ""
+    # just above the threshold in A5 warns, just below does not (cond ~ 316 / A5 [deg])
+    assert main(["robot", str(KUKA_DIR), "--q-deg=0,-65,108,0,3.3,0"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(["robot", str(KUKA_DIR), "--q-deg=0,-65,108,0,3.0,0"]) == 0
+    assert "near-singular pose" in capsys.readouterr().err
+
+
+def test_near_singular_threshold_is_the_path_ik_limit():
+    import inspect
+
+    from feedopt.commands.robot import NEAR_SINGULAR
+    from feedopt.robot.ik import solve_path_ik
+
+    assert NEAR_SINGULAR == inspect.signature(solve_path_ik).parameters["max_condition"].default
