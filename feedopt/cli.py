@@ -11,11 +11,12 @@ import argparse
 import importlib
 import os
 import pkgutil
+import signal
 import sys
 import traceback
 
 from feedopt import __version__, commands
-from feedopt.errors import InputError
+from feedopt.errors import InputError, Terminated
 
 # Order in --help; modules not listed here are appended alphabetically.
 _ORDER = ["run", "validate", "compare", "path", "forces", "calibrate", "robot"]
@@ -46,13 +47,44 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate(signum: int, _frame: object) -> None:
+    # One is enough: ignore repeats while the unwinding cleans up.
+    signal.signal(signum, signal.SIG_IGN)
+    raise Terminated(signal.Signals(signum).name)
+
+
+def _install_signal_handlers() -> dict[int, object]:
+    """SIGTERM and SIGHUP unwind like Ctrl-C, so staging folders are removed; returns the
+    previous handlers (nothing is installed outside the main thread)."""
+    previous: dict[int, object] = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is None:
+            continue
+        try:
+            previous[sig] = signal.signal(sig, _terminate)
+        except ValueError:  # not the main thread (embedded use): leave signals alone
+            break
+    return previous
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``feedopt`` console script; returns the process exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
-        parser.print_help()
-        return 0
+        parser.print_help(sys.stderr)
+        print("\nfeedopt: error: give a command (see the list above)", file=sys.stderr)
+        return 2
+    previous = _install_signal_handlers()
+    try:
+        return _dispatch(args)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
@@ -62,7 +94,10 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the flush at exit
         return 0
     except KeyboardInterrupt:
-        print("feedopt: interrupted", file=sys.stderr)
+        print("feedopt: interrupted; nothing was written", file=sys.stderr)
+        return 1
+    except Terminated as exc:
+        print(f"feedopt: stopped by {exc.signal_name}; nothing was written", file=sys.stderr)
         return 1
     except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into exit code 1
         if args.debug:

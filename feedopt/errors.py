@@ -14,5 +14,13 @@ class InputError(FeedoptError):
     """The user's input cannot be planned; the message says why and where (exit code 2)."""
 
 
-class VerificationError(FeedoptError):
-    """A trajectory failed its own replay verification and must not be exported silently."""
+class Terminated(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
+    """The process received SIGTERM or SIGHUP: unwind (cleaning up staging folders) and stop.
+
+    A ``BaseException`` like :class:`KeyboardInterrupt`, so that no ``except Exception``
+    swallows it and every ``finally`` on the way out runs.
+    """
+
+    def __init__(self, signal_name: str) -> None:
+        super().__init__(signal_name)
+        self.signal_name = signal_name

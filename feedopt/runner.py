@@ -9,9 +9,7 @@ look complete.
 from __future__ import annotations
 
 import json
-import shutil
 import sys
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,23 +18,29 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from feedopt import outdir
 from feedopt.errors import InputError
 from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints, build_lipb_path
 from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
 from feedopt.geometry.waypoints import read_waypoints_csv
-from feedopt.process.coefficients import load_coefficients
+from feedopt.process.coefficients import (
+    CoefficientTable,
+    feed_per_tooth_warning,
+    load_coefficients,
+)
 from feedopt.process.engagement import (
     Engagement,
     peripheral_engagement,
     radial_depth_profile,
     slot_engagement,
 )
+from feedopt.process.path_radius import check_path_radius
 from feedopt.process.tool import Tool, load_tool
 from feedopt.robot.ik import PathIK, solve_path_ik
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stiffness import translational_compliance
-from feedopt.scenario import Scenario, load_scenario, resolve
+from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
 from feedopt.schedule.bounds import FeedBound, feed_bound
 from feedopt.schedule.deflection import DeflectionModel, feed_frames
 from feedopt.schedule.laws import plan_law
@@ -66,6 +70,7 @@ class Prepared:
     tool_axes: np.ndarray  # (n, 3) in the base frame
     frames: np.ndarray  # (n, 3, 3) force-model frame -> base
     tool: Tool
+    coefficient_table: CoefficientTable  # the material file, all calibrated speeds
     robot: RobotModel
     ik: PathIK
     compliance: np.ndarray  # (n, 3, 3) [m/N]
@@ -75,6 +80,11 @@ class Prepared:
     q_of_s: CubicSpline
     limit: float
     stage_times: dict[str, float] = field(default_factory=dict)
+    # What the run does that the user should know (placeholder robot data, tight radii, an
+    # export that will be skipped...): printed, in summary.json and in the report.
+    warnings: list[str] = field(default_factory=list)
+    # Why no KRL program is written for this run (None: it is written for the KRL laws).
+    krl_blocker: str | None = None
 
 
 @dataclass
@@ -157,6 +167,45 @@ def _peripheral(cut, tool: Tool, s: np.ndarray, depth: float) -> Engagement:
     return peripheral_engagement(radial, tool.diameter, depth, cut.milling)
 
 
+def _segment_names(path: ToolPath) -> list[str]:
+    """Readable name of each path segment for messages ("line 3", "circle blend of corner 2")."""
+    return [f"line {i}" if seg.kind == "line" else
+            f"{seg.kind} blend of corner {seg.corner_index}" for i, seg in enumerate(path.segments)]
+
+
+def _krl_blocker(robot: RobotModel, path: ToolPath) -> str | None:
+    """Why the run will not write a KRL program, known before any planning."""
+    from feedopt.export.krl import MAX_SEGMENTS
+
+    if robot.controller != "kuka":
+        return (f"no KRL program: robot {robot.name} has controller '{robot.controller}' "
+                "(robot.yaml), KRL is for KUKA controllers")
+    n_segments = sum(1 if seg.kind == "line" else 2 for seg in path.segments)
+    if n_segments > MAX_SEGMENTS:
+        return (f"no KRL program: the path's key points make {n_segments} spline segments, "
+                f"more than the {MAX_SEGMENTS} a KSS 8.x SPLINE block holds; the RSI CSVs are "
+                "written as usual")
+    return None
+
+
+def _feed_range_warnings(table, scenario: Scenario, tool: Tool, v_max: np.ndarray) -> list[str]:
+    """Feeds per tooth the run uses (nominal, max, lowest of the bound) that leave the range
+    the cutting coefficients were calibrated on."""
+    per_tooth = 1.0 / (scenario.cut.spindle_rpm / 60.0 * tool.teeth)  # s per tooth pass
+    feed = scenario.feed
+    checks = [("feed.nominal_mm_s", feed.nominal_mm_s * MM)]
+    if feed.max_mm_s is not None:
+        checks.append(("feed.max_mm_s", feed.max_mm_s * MM))
+    interior = v_max[1:-1] if v_max.size > 2 else v_max
+    checks.append(("the lowest feed of the bound", float(np.min(interior))))
+    out = []
+    for what, v in checks:
+        text = feed_per_tooth_warning(table, v * per_tooth)
+        if text:
+            out.append(f"{what} ({v / MM:.4g} mm/s): {text}")
+    return out
+
+
 def prepare(
     scenario: Scenario,
     base_dir: Path,
@@ -177,6 +226,7 @@ def prepare(
             f"a spacing of at least {path.length / MM / (MAX_SAMPLES - 1):.2g} mm)"
         )
     samples = path.sample(spacing)
+    warnings = scenario_warnings(scenario)
     times["geometry"] = time.perf_counter() - t0
     progress(f"[1/5] geometry: {len(path.segments)} segments, {path.length / MM:.2f} mm, "
              f"{samples.s.size} samples ({times['geometry']:.2f} s)")
@@ -201,6 +251,8 @@ def prepare(
     table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
     coeffs = table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     engagement = engagement_of(scenario, tool, samples.s)
+    warnings += check_path_radius(samples.s, samples.curvature, samples.segment,
+                                  _segment_names(path), 0.5 * tool.diameter)
     times["process"] = time.perf_counter() - t0
     progress(f"[2/5] process: tool {tool.name}, {scenario.cut.type} cut at "
              f"{scenario.cut.spindle_rpm:g} rpm ({times['process']:.2f} s)")
@@ -214,6 +266,8 @@ def prepare(
     ik = solve_path_ik(robot, positions, axis, q_start, x_axes=x_axes)
     compliance = translational_compliance(robot, ik.q, scenario.robot.stiffness)
     q_of_s = CubicSpline(samples.s, ik.q, axis=0)
+    warnings += [f"robot {robot.name}: {w}" for w in robot.data_warnings]
+    krl_blocker = _krl_blocker(robot, path)
     times["robot"] = time.perf_counter() - t0
     progress(f"[3/5] robot: {robot.name}, IK on {samples.s.size} samples, max condition "
              f"number {np.max(ik.condition_number):.1f} ({times['robot']:.2f} s)")
@@ -275,15 +329,21 @@ def prepare(
         key_point_spacing=scenario.schedule.key_point_spacing_mm * MM,
     )
     times["bounds"] = time.perf_counter() - t0
+    warnings += _feed_range_warnings(table, scenario, tool, bound.v_max)
+    if krl_blocker is not None and robot.controller == "kuka":
+        warnings.append(krl_blocker)
+    for w in warnings:
+        progress(f"warning: {w}")
     share = ", ".join(f"{k} {v:.0%}" for k, v in bound.active_fraction().items() if v > 0)
     progress(f"[4/5] bounds: v_max {bound.v_max.min() / MM:.3f}-{bound.v_max.max() / MM:.3f} "
              f"mm/s, T* = {problem.lower_bound_time():.2f} s; active: {share} "
              f"({times['bounds']:.2f} s)")
     return Prepared(
         scenario=scenario, base_dir=base_dir, path=path, samples=samples, positions=positions,
-        tool_axes=axis, frames=frames, tool=tool, robot=robot, ik=ik, compliance=compliance,
+        tool_axes=axis, frames=frames, tool=tool, coefficient_table=table, robot=robot, ik=ik,
+        compliance=compliance,
         model=model, bound=bound, problem=problem, q_of_s=q_of_s, limit=limit,
-        stage_times=times,
+        stage_times=times, warnings=warnings, krl_blocker=krl_blocker,
     )
 
 
@@ -416,7 +476,8 @@ def write_outputs(
     cycle = sc.export.rsi_cycle_ms * 1e-3
     from feedopt.report.summary import law_summary, scenario_summary
 
-    summary = {"scenario": scenario_summary(prepared), "laws": {}}
+    summary = {"scenario": scenario_summary(prepared), "warnings": list(prepared.warnings),
+               "laws": {}}
     series = []
     for law, res in results.items():
         entry = law_summary(prepared, res)
@@ -448,7 +509,10 @@ def write_outputs(
                 "deflection = predicted static deflection at the commanded feed",
             ])
             entry["rsi_csv"] = f"{law}.csv"
-            if law in ("thesis", "constant"):
+            if law in ("thesis", "constant") and prepared.krl_blocker is not None:
+                entry["krl_program"] = None
+                entry["krl_not_written"] = prepared.krl_blocker
+            elif law in ("thesis", "constant"):
                 pts, motions, vels, q0 = _krl_points(prepared, res)
                 write_krl_program(out_dir / f"{law}.src", None, pts, motions, vels, q0, comments=[
                     f"feedopt scenario {sc.name}, law {law}: key points of the path with the "
@@ -494,25 +558,28 @@ def run_scenario(
     spacing_mm: float | None = None,
     report: bool = True,
     progress: Progress = _stderr_progress,
+    overwrite: bool = False,
 ) -> RunResult:
-    """Run a scenario end to end and write its outputs (atomically) to ``out_dir``."""
+    """Run a scenario end to end and write its outputs (atomically) to ``out_dir``.
+
+    The destination is checked and its staging folder created before any planning
+    (:mod:`feedopt.outdir`): a folder of the user's own files is never replaced, and a
+    failed or interrupted run leaves nothing behind.
+    """
     from feedopt.report.tables import comparison_table
 
     scenario, base_dir = load_scenario(scenario_path)
-    laws = laws or list(scenario.schedule.laws)
-    prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
-    results = plan_and_verify(prepared, laws, progress)
+    laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite)
     try:
-        summary = write_outputs(prepared, results, staging, export_unverified, report)
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
+        prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
+        results = plan_and_verify(prepared, laws, progress)
+        summary = write_outputs(prepared, results, dest.staging, export_unverified, report)
+        outdir.commit(dest)
     finally:
-        if staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
+        if dest.staging.exists():
+            outdir.discard(dest)
     return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,
                      table=comparison_table([summary], [scenario.name]))
 

@@ -18,7 +18,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "and constant laws, summary.json and report.md/report.html.",
     )
     p.add_argument("scenario", help="scenario YAML file (see scenarios/)")
-    p.add_argument("--out", help="output folder (default: out/<scenario name>/)")
+    p.add_argument("--out", help="output folder (default: out/<scenario name>/). It must be "
+                   "new, empty or a previous feedopt output (which is replaced); a folder with "
+                   "other files is refused unless --overwrite. Never the current directory, "
+                   "the scenario's folder or a parent of them")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into an existing --out that holds other files: files of the "
+                   "same names are replaced, every other file is kept")
     p.add_argument("--laws", help=f"comma-separated subset of {','.join(LAWS)} "
                    "(default: the scenario's list)")
     p.add_argument("--export-unverified", action="store_true",
@@ -52,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         export_unverified=args.export_unverified,
         spacing_mm=args.spacing_mm,
         report=not args.no_report,
+        overwrite=args.overwrite,
     )
     print(result.table)
     print(f"\nwrote {result.out_dir}")

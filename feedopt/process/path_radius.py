@@ -1,0 +1,53 @@
+"""Is the engagement model meaningful where the path turns? Path radius vs cutter radius.
+
+The engagement models of :mod:`feedopt.process.engagement` assume every point of the cutter
+moves with the feed of its centre (a straight cut). On a path of radius r the cutter edge on
+the inside of the turn moves with ``v (1 - R / r)`` (R the cutter radius): below r = R the
+inner flutes move backwards and the chip-thickness model (``h = c sin(phi)``) is wrong on the
+inside; below r = R/2 a quarter of the cutter diameter moves backwards and the model says
+nothing useful. Until the stock model computes the engagement (issue 12), feedopt warns
+below R and refuses below R/2.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.units import MM
+
+#: Below this fraction of the cutter radius the straight-cut engagement model is refused.
+REFUSE_BELOW = 0.5
+
+
+def check_path_radius(s: np.ndarray, curvature: np.ndarray, segment: np.ndarray,
+                      segment_names: list[str], tool_radius: float) -> list[str]:
+    """Warnings for path radii below the cutter radius; InputError below ``REFUSE_BELOW`` R.
+
+    Parameters
+    ----------
+    s : (n,) arc length [m]; curvature : (n, 3) curvature vector [1/m]
+    segment : (n,) segment index of each sample; segment_names : a readable name per segment
+    tool_radius : cutter radius R [m]
+    """
+    kappa = np.linalg.norm(curvature, axis=1)
+    tight = kappa * tool_radius > 1.0
+    if not np.any(tight):
+        return []
+    i = int(np.argmax(kappa))
+    r = 1.0 / kappa[i]
+    where = (f"{segment_names[int(segment[i])]} at s = {s[i] / MM:.2f} mm "
+             f"(sample {i})")
+    # Stretches of consecutive tight samples, for the count of places.
+    places = int(np.count_nonzero(np.diff(tight.astype(np.int8)) == 1) + tight[0])
+    numbers = (f"the tightest path radius is {r / MM:.3g} mm, {where}, for a cutter radius of "
+               f"{tool_radius / MM:.4g} mm")
+    if r < REFUSE_BELOW * tool_radius:
+        raise InputError(
+            f"{numbers}: below half the cutter radius a quarter of the cutter moves against the "
+            "feed and the straight-cut engagement model is meaningless there; use a blend of at "
+            f"least {tool_radius / MM:.4g} mm (path.blend_size_mm) or a coarser path")
+    return [f"{numbers} ({places} place(s) tighter than the cutter): the inner flutes move "
+            "backwards there and the straight-cut engagement model over-predicts the chip on "
+            f"the inside; feeds there are approximate (a blend of at least {tool_radius / MM:.4g}"
+            " mm avoids it)"]

@@ -1,0 +1,91 @@
+"""Caveats reach the user (issue 19): robot data warnings, tight path radii, exports that
+cannot be written, all known before planning and kept in summary.json."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from feedopt.errors import InputError
+from feedopt.runner import run_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / "scenarios"
+
+
+def _scenario(tmp_path: Path, name: str, **changes) -> Path:
+    doc = yaml.safe_load((SCENARIOS / f"{name}.yaml").read_text())
+    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+    doc["tool"] = str(SCENARIOS / doc["tool"])
+    doc["material"] = str(SCENARIOS / doc["material"])
+    for dotted, value in changes.items():
+        section, key = dotted.split("__")
+        doc[section][key] = value
+    p = tmp_path / f"{name}.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def test_ur10_run_carries_placeholder_warnings_and_writes_no_krl(tmp_path) -> None:
+    # UR10 at q0 = (0, -90, 90, -90, -90, 0) deg: TCP at (-688, -163.9, 447.1) mm, TCP z up,
+    # TCP x along base +y (FK); the workpiece frame is put there so the path starts at q0.
+    p = _scenario(
+        tmp_path, "linear_peripheral",
+        robot__directory=str(ROOT / "robots" / "ur10"),
+        robot__start_configuration_deg=[0, -90, 90, -90, -90, 0],
+        workpiece__position_mm=[-688.0, -163.941, 447.1],
+        workpiece__rpy_deg=[0.0, 0.0, 90.0],
+        path__end_mm=[40.0, -1.0, 0.0], path__spacing_mm=1.0,
+        deflection__limit_mm=5.0, schedule__laws=["constant", "thesis", "jerk"],
+    )
+    messages: list[str] = []
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=messages.append, report=False)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert any("ILLUSTRATIVE PLACEHOLDER" in w for w in summary["warnings"])
+    assert any(m.startswith("warning: robot ur10:") and "PLACEHOLDER" in m for m in messages)
+    assert not list((tmp_path / "out").glob("*.src"))
+    assert "controller 'ur'" in summary["laws"]["thesis"]["krl_not_written"]
+    assert summary["laws"]["jerk"]["exported"] and (tmp_path / "out" / "jerk.csv").is_file()
+    assert result.prepared.robot.controller == "ur"
+
+
+def test_square_slot_warns_about_its_tight_corner(tmp_path) -> None:
+    p = _scenario(tmp_path, "square_slot", path__spacing_mm=1.0,
+                  schedule__laws=["constant", "jerk"])
+    messages: list[str] = []
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=messages.append, report=False)
+    radius = [w for w in result.summary["warnings"] if "tightest path radius" in w]
+    assert len(radius) == 1 and "cutter radius of 9.525 mm" in radius[0]
+    # The tightest radius by an independent dense evaluation of the same path.
+    dense = result.prepared.path.sample(1e-5)
+    r_min = 1e3 / np.max(np.linalg.norm(dense.curvature, axis=1))
+    reported = float(radius[0].split("tightest path radius is ")[1].split(" mm")[0])
+    assert reported == pytest.approx(r_min, rel=2e-2)  # 1 mm sampling of the run
+    assert "varying_radius blend of corner" in radius[0]
+
+
+def test_path_much_tighter_than_the_cutter_is_refused_before_planning(tmp_path) -> None:
+    p = _scenario(tmp_path, "square_slot", path__blend="circle", path__blend_size_mm=3.0)
+    messages: list[str] = []
+    with pytest.raises(InputError, match=r"tightest path radius is 3 mm.*meaningless"):
+        run_scenario(p, out_dir=tmp_path / "out", progress=messages.append)
+    assert not any(m.startswith("[3/5]") for m in messages)
+    assert not (tmp_path / "out").exists()
+
+
+def test_krl_segment_cap_skips_krl_only_and_is_said_up_front(tmp_path, monkeypatch) -> None:
+    import feedopt.export.krl as krl
+
+    monkeypatch.setattr(krl, "MAX_SEGMENTS", 5)
+    p = _scenario(tmp_path, "triangle_slot", path__spacing_mm=2.0,
+                  schedule__laws=["thesis", "jerk"])
+    messages: list[str] = []
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=messages.append, report=False)
+    warn = [i for i, m in enumerate(messages) if "no KRL program" in m]
+    first_law = next(i for i, m in enumerate(messages) if m.startswith("[5/5]"))
+    assert warn and warn[0] < first_law  # said before any law was planned
+    assert "more than the 5" in result.summary["laws"]["thesis"]["krl_not_written"]
+    assert (tmp_path / "out" / "thesis.csv").is_file() and (tmp_path / "out" / "jerk.csv").is_file()
+    assert not (tmp_path / "out" / "thesis.src").exists()
