@@ -12,6 +12,9 @@ baseline does not promise the deflection limit; topp does not promise C2). ``exp
 the trajectory meets what every exported trajectory must meet (deflection within the limit,
 C2, jerk within its limit); only exportable trajectories are written for the controller
 unless the user explicitly asks for the others.
+
+Every message (problems, warnings, export blockers) is in user units (mm, mm/s, mm/s^2,
+mm/s^3) with the unit written, limits included.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ from feedopt.schedule.checks import TimingCheck, check_timing
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
+from feedopt.units import MM
 
 # Laws that by definition ignore the deflection bound (the thesis baseline): their
 # exceedance is measured and reported, but it is the expected result, not a failure.
@@ -91,9 +95,9 @@ def verify_trajectory(
     warnings: list[str] = list(trajectory.notes)
     if not meets:
         msg = (
-            f"predicted deflection {deflection[worst] * 1e3:.4f} mm exceeds the limit "
-            f"{limit * 1e3:.4f} mm (ratio {deflection[worst] / limit:.4f}) at sample {worst}, "
-            f"s = {problem.s[worst] * 1e3:.2f} mm"
+            f"predicted deflection {deflection[worst] / MM:.4f} mm exceeds the limit "
+            f"{limit / MM:.4f} mm (ratio {deflection[worst] / limit:.4f}) at sample {worst}, "
+            f"s = {problem.s[worst] / MM:.2f} mm"
         )
         if baseline:
             warnings.append(msg + " (expected: this baseline ignores the limit)")
@@ -101,15 +105,16 @@ def verify_trajectory(
             problems.append(msg)
     blockers = []
     if not meets:
-        blockers.append(f"deflection reaches {deflection[worst] / limit:.4f} x the limit")
+        blockers.append(f"deflection reaches {deflection[worst] / MM:.4f} mm, "
+                        f"{deflection[worst] / limit:.4f} x the limit {limit / MM:.4g} mm")
     if not timing.c2:
         blockers.append(
-            f"not C2: the acceleration jumps by up to {timing.accel_jump * 1e3:.4g} mm/s^2, "
+            f"not C2: the acceleration jumps by up to {timing.accel_jump / MM:.4g} mm/s^2, "
             "so the jerk is unbounded"
         )
     elif np.isfinite(problem.jerk_max) and timing.max_jerk > problem.jerk_max * (1 + rtol):
-        blockers.append(f"jerk {timing.max_jerk * 1e3:.4g} mm/s^3 exceeds the limit "
-                        f"{problem.jerk_max * 1e3:.4g} mm/s^3")
+        blockers.append(f"jerk {timing.max_jerk / MM:.4g} mm/s^3 exceeds the limit "
+                        f"{problem.jerk_max / MM:.4g} mm/s^3")
     return Verification(
         law=trajectory.law,
         timing=timing,
@@ -140,7 +145,7 @@ def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) 
            f"{trajectory.duration!r} s): nothing to replay")
     timing = TimingCheck(
         duration=trajectory.duration, lower_bound=problem.lower_bound_time(),
-        feed_ratio=np.nan, worst_sample=0, max_feed=np.nan, min_feed_interior=np.nan,
+        feed_ratio=np.nan, worst_sample=0, max_feed=np.nan, min_cutting_feed=np.nan,
         max_accel=np.nan, max_jerk=np.nan, velocity_jump=np.nan, accel_jump=np.nan, c2=False,
         joint_velocity_ratio=np.nan, joint_acceleration_ratio=np.nan, start_feed=np.nan,
         end_feed=np.nan, problems=(msg,),

@@ -31,6 +31,8 @@ LAW_KEYS: dict[str, str] = {
     "planning_time_s": "num",
 }
 OPTIONAL_LAW_KEYS: dict[str, str] = {"deflection_ratio": "num"}
+# Optional per-law objects (start/stop ramps, schedule/checks.py) and their numeric keys.
+RAMP_KEYS = ("length_mm", "duration_s", "feed_mm_s", "s_from_mm", "s_to_mm")
 
 
 def _ro(a, shape_tail: tuple[int, ...] = (), name: str = "") -> np.ndarray:
@@ -192,6 +194,18 @@ def validate_summary(obj, source: str = "summary.json") -> dict:
             raise InputError(f"{source}: laws.{law} lacks {', '.join(missing)}")
         for key, kind in {**LAW_KEYS, **OPTIONAL_LAW_KEYS}.items():
             _check_value(kind, row.get(key), f"{source}: laws.{law}.{key}")
+        for ramp in ("start_ramp", "stop_ramp"):
+            value = row.get(ramp)
+            if value is None:
+                continue
+            if not isinstance(value, dict):
+                raise InputError(f"{source}: laws.{law}.{ramp} must be an object or null, "
+                                 f"got {value!r}")
+            for key in RAMP_KEYS:
+                _check_value("num", value.get(key), f"{source}: laws.{law}.{ramp}.{key}")
+    warnings = obj.get("warnings", [])
+    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
+        raise InputError(f"{source}: 'warnings' must be a list of strings, got {warnings!r}")
     scen = obj.get("scenario", {})
     if not isinstance(scen, dict):
         raise InputError(f"{source}: 'scenario' must be an object, got {scen!r}")

@@ -14,8 +14,17 @@ import os
 from pathlib import Path
 
 from feedopt.report.data import ReportData
+from feedopt.report.inputs import input_rows, run_warnings
 from feedopt.report.plots import FIGURES, render_png
-from feedopt.report.tables import comparison_table, comparison_table_html
+from feedopt.report.tables import (
+    RAMP_NOTE,
+    comparison_table,
+    comparison_table_html,
+    html_table,
+    markdown_table,
+    ramp_table,
+    ramp_table_html,
+)
 
 _CSS = """
 body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -23,6 +32,8 @@ table.comparison { border-collapse: collapse; font-size: 0.85em; }
 table.comparison th, table.comparison td { border: 1px solid #bbb; padding: 0.25em 0.5em; }
 table.comparison td.num { text-align: right; font-variant-numeric: tabular-nums; }
 td.bad { color: #b00; font-weight: bold; }
+table.inputs td.txt:first-child { white-space: nowrap; font-weight: bold; }
+ul.warnings { color: #8a4b00; }
 figure { margin: 1.5em 0; } figure img { max-width: 100%; }
 figcaption { font-size: 0.9em; color: #444; }
 """
@@ -33,8 +44,9 @@ _LEGEND = (
     "deflection over the limit (<= 1 meets it); verified: the replay shows the law kept "
     "every promise it makes (the constant baseline does not promise the limit, topp does not "
     "promise C2); exported: the trajectory also meets the limit, is C2 and jerk-bounded, so "
-    "its RSI CSV was written."
+    "its RSI CSV was written; min cutting feed, ramps start/stop: see the ramp table below."
 )
+_INPUT_HEADERS = (("input", False), ("value", False))
 
 
 def _notes_lines(data: ReportData) -> list[tuple[str, str]]:
@@ -56,9 +68,17 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     table_md = comparison_table([data.summary])
     title = f"feedopt report: {data.scenario}"
     limit = f"Deflection limit: {data.deflection_limit_mm:g} mm."
+    warnings = run_warnings(data.summary)
+    inputs = input_rows(data.summary)
 
-    md = [f"# {title}", "", "## Comparison of timing laws", "", table_md, "", limit, "",
-          _LEGEND, "", "## Verification and notes", ""]
+    md = [f"# {title}", ""]
+    if warnings:
+        md += ["## Warnings", "", *(f"- {w}" for w in warnings), ""]
+    if inputs:
+        md += ["## Inputs", "", markdown_table(_INPUT_HEADERS, inputs), ""]
+    md += ["## Comparison of timing laws", "", table_md, "", limit, "", _LEGEND, "",
+           "### Start and stop ramps", "", ramp_table(data.summary), "", RAMP_NOTE, "",
+           "## Verification and notes", ""]
     for law, text in _notes_lines(data):
         md.append(f"- **{law}**: {text}" if law else f"- {text}")
     md += ["", "## Figures", ""]
@@ -74,10 +94,21 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
         f"<style>{_CSS}</style>",
         "</head><body>",
         f"<h1>{esc(title)}</h1>",
+    ]
+    if warnings:
+        h += ["<h2>Warnings</h2>", '<ul class="warnings">',
+              *(f"<li>{esc(w)}</li>" for w in warnings), "</ul>"]
+    if inputs:
+        h += ["<h2>Inputs</h2>",
+              html_table(_INPUT_HEADERS, inputs, css_class="comparison inputs")]
+    h += [
         "<h2>Comparison of timing laws</h2>",
         comparison_table_html([data.summary]),
         f"<p>{esc(limit)}</p>",
         f"<p>{esc(_LEGEND)}</p>",
+        "<h3>Start and stop ramps</h3>",
+        ramp_table_html(data.summary),
+        f"<p>{esc(RAMP_NOTE)}</p>",
         "<h2>Verification and notes</h2>",
         "<ul>",
     ]

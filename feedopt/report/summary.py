@@ -14,32 +14,88 @@ from feedopt.units import MM
 
 if TYPE_CHECKING:
     from feedopt.runner import LawResult, Prepared
+    from feedopt.schedule.checks import Ramp
+
+
+def _finite(x) -> float | None:
+    """``x`` as a float, or None when it is NaN or infinite (JSON has no NaN)."""
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _material(prepared: Prepared) -> dict:
+    """Name, coefficient source and calibrated speeds of the scenario's material file."""
+    sc = prepared.scenario
+    table = prepared.coefficient_table
+    rpm = float(sc.cut.spindle_rpm)
+    lo, hi = float(table.rpm[0]), float(table.rpm[-1])
+    return {
+        "name": table.material or None,
+        "file": sc.material,
+        "coefficient_source": table.source or None,
+        "coefficient_tool": table.tool or None,
+        "calibrated_rpm": table.rpm.tolist(),
+        "coefficients_at_rpm": ("calibrated" if np.any(np.isclose(table.rpm, rpm, rtol=1e-9))
+                                else "interpolated" if lo <= rpm <= hi else "extrapolated"),
+    }
 
 
 def scenario_summary(prepared: Prepared) -> dict:
-    """The resolved inputs, in user units, for summary.json (design.md)."""
-    sc, tool, model = prepared.scenario, prepared.tool, prepared.model
+    """The resolved inputs, in user units, for summary.json (design.md).
+
+    Everything a reader of the report needs to know what job was planned: robot, stiffness,
+    TCP, tool, material, cut, placement, feeds, limits and sampling (the report's inputs
+    table is built from this dictionary alone).
+    """
+    sc, tool, model, robot = prepared.scenario, prepared.tool, prepared.model, prepared.robot
     c = model.coefficients
+    problem = prepared.problem
+    n = int(problem.n)
+    cut = sc.cut
+    profile = cut.radial_depth_profile
     return {
         "name": sc.name,
+        "description": sc.description,
+        "robot": {"name": robot.name, "directory": sc.robot.directory,
+                  "stiffness_source": robot.sources.get("stiffness"),
+                  "tool_source": robot.sources.get("tool")},
         "tool": {"name": tool.name, "diameter_mm": tool.diameter / MM, "teeth": tool.teeth,
-                 "helix_deg": float(np.rad2deg(tool.helix))},
-        "cut": {"type": sc.cut.type, "axial_depth_mm": sc.cut.axial_depth_mm,
-                "radial_depth_mm": sc.cut.radial_depth_mm, "milling": sc.cut.milling,
-                "rpm": sc.cut.spindle_rpm},
+                 "helix_deg": float(np.rad2deg(tool.helix)),
+                 "flute_length_mm": tool.flute_length / MM, "file": sc.tool},
+        "material": _material(prepared),
+        "cut": {"type": cut.type, "axial_depth_mm": cut.axial_depth_mm,
+                "radial_depth_mm": cut.radial_depth_mm,  # null: slot (full) or profile
+                "radial_depth_profile": (None if profile is None
+                                         else profile.model_dump(exclude_none=True)),
+                "milling": cut.milling, "rpm": cut.spindle_rpm},
         "coefficients": {"ktc_n_m2": c.ktc, "krc_n_m2": c.krc, "kac_n_m2": c.kac,
                          "kte_n_m": c.kte, "kre_n_m": c.kre, "kae_n_m": c.kae},
         "deflection_limit_mm": sc.deflection.limit_mm,
         "limit_mode": sc.deflection.mode,
+        "limit_direction": (None if sc.deflection.direction is None
+                            else list(sc.deflection.direction)),
         "stiffness_set": sc.robot.stiffness,
-        "stiffness_mnm_per_rad": (prepared.robot.stiffness[sc.robot.stiffness] / 1e6).tolist(),
-        "tcp_offset_mm": (prepared.robot.tcp_offset[:3, 3] / MM).tolist(),
+        "stiffness_mnm_per_rad": (robot.stiffness[sc.robot.stiffness] / 1e6).tolist(),
+        "tcp_offset_mm": (robot.tcp_offset[:3, 3] / MM).tolist(),
         "workpiece_position_mm": list(sc.workpiece.position_mm),
         "workpiece_rpy_deg": list(sc.workpiece.rpy_deg),
+        "tool_axis": list(sc.workpiece.tool_axis),
         "nominal_feed_mm_s": sc.feed.nominal_mm_s,
-        "path_length_mm": prepared.problem.length / MM,
-        "samples": int(prepared.problem.n),
-        "lower_bound_s": prepared.problem.lower_bound_time(),
+        "max_feed_mm_s": (sc.feed.max_mm_s if sc.feed.max_mm_s is not None
+                          else sc.feed.nominal_mm_s),
+        "max_feed_is_default": sc.feed.max_mm_s is None,
+        "start_feed_mm_s": sc.feed.start_mm_s,
+        "end_feed_mm_s": sc.feed.end_mm_s,
+        "tangential_acceleration_mm_s2": sc.limits.tangential_acceleration_mm_s2,
+        "tangential_jerk_mm_s3": sc.limits.tangential_jerk_mm_s3,
+        "joint_velocity_scale": sc.limits.joint_velocity_scale,
+        "joint_acceleration_scale": sc.limits.joint_acceleration_scale,
+        "path": {"generator": sc.path.generator, "blend": sc.path.blend,
+                 "blend_size_mm": sc.path.blend_size_mm, "segments": len(prepared.path.segments)},
+        "path_length_mm": problem.length / MM,
+        "samples": n,
+        "sample_spacing_mm": problem.length / MM / max(n - 1, 1),
+        "lower_bound_s": problem.lower_bound_time(),
         "active_constraints": prepared.bound.active_fraction(),
         "max_condition_number": float(np.max(prepared.ik.condition_number)),
         "stage_times_s": dict(prepared.stage_times),
@@ -54,6 +110,19 @@ def _json_ready(value: object) -> bool:
     return True
 
 
+def _ramp(ramp: Ramp) -> dict:
+    """A start or stop ramp in user units; ``feed_mm_s`` is the feed it reaches (start) or
+    leaves from (stop), ``ends_by`` why it ends there (``flat``, ``bound``, ``path``)."""
+    return {
+        "length_mm": _finite(ramp.length / MM),
+        "duration_s": _finite(ramp.duration),
+        "feed_mm_s": _finite(ramp.feed / MM),
+        "s_from_mm": _finite(ramp.s_from / MM),
+        "s_to_mm": _finite(ramp.s_to / MM),
+        "ends_by": ramp.reason,
+    }
+
+
 def law_summary(prepared: Prepared, result: LawResult) -> dict:
     ver, timing = result.verification, result.verification.timing
     traj = result.trajectory
@@ -65,7 +134,10 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "deflection_ratio": ver.deflection_ratio,
         "meets_limit": ver.meets_limit,
         "max_feed_mm_s": timing.max_feed / MM,
-        "min_feed_mm_s": timing.min_feed_interior / MM,
+        # smallest feed between the start and stop ramps (schedule/checks.py find_ramps)
+        "min_feed_mm_s": _finite(timing.min_cutting_feed / MM),
+        "start_ramp": _ramp(timing.start_ramp),
+        "stop_ramp": _ramp(timing.stop_ramp),
         "max_accel_mm_s2": timing.max_accel / MM,
         "max_jerk_mm_s3": timing.max_jerk / MM if traj.continuity >= 2 else None,
         "accel_jump_mm_s2": timing.accel_jump / MM,

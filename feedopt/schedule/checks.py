@@ -1,7 +1,16 @@
 """Kinematic checks of a trajectory against its problem (used by laws' tests and verify.py).
 
 Everything is evaluated on the path samples (never only on a solver grid) and at the
-polynomial breakpoints, where continuity is measured as left/right jumps.
+polynomial breakpoints, where continuity is measured as left/right jumps. Numbers are SI
+inside; every problem string is in user units (mm, mm/s, mm/s^2, mm/s^3, deg/s) with the
+unit written, limits included.
+
+Start and stop ramps (:class:`Ramp`, :func:`find_ramps`) are defined on the trajectory
+itself, not on the samples, so they do not depend on the sample spacing: the start ramp runs
+from s = 0 to the first instant at which the feed stops increasing (sddot <= 0) or reaches the
+feed bound v_max(s) (within :data:`BOUND_REACHED_RTOL`, the ramp then ends with the polynomial
+piece in which that happens), whichever comes first; the stop ramp is the same seen backwards
+from the end of the path. ``min_cutting_feed`` is the smallest feed between the two ramps.
 """
 
 from __future__ import annotations
@@ -12,18 +21,64 @@ import numpy as np
 
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
+from feedopt.units import MM
 
 # Evaluation points per polynomial piece for the extrema of acceleration and jerk.
 _POINTS_PER_PIECE = 9
+#: A ramp "reaches the bound" where sdot >= (1 - BOUND_REACHED_RTOL) v_max(s).
+BOUND_REACHED_RTOL = 1e-3
+# Acceleration below this fraction of max |sddot| counts as zero (the feed is flat).
+_FLAT_ACCEL_RTOL = 1e-9
+# Events (breakpoints, acceleration roots) closer than this fraction of the duration merge.
+_EVENT_TOL = 1e-12
+# Points per event interval where a ramp is compared with the bound.
+_BOUND_POINTS = 8
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """A start or stop ramp of a trajectory (see the module docstring for the definition).
+
+    ``s_from``..``s_to`` [m] and ``t_from``..``t_to`` [s] delimit it; ``feed`` [m/s] is the
+    feed it reaches (start ramp: at ``t_to``) or leaves from (stop ramp: at ``t_from``);
+    ``reason`` says why it ends there: ``"flat"`` (the feed stops increasing, or for a stop
+    ramp starts decreasing), ``"bound"`` (the feed meets v_max) or ``"path"`` (the ramp is the
+    whole path).
+    """
+
+    s_from: float
+    s_to: float
+    t_from: float
+    t_to: float
+    feed: float
+    reason: str = "flat"
+
+    @property
+    def length(self) -> float:
+        """Arc length of the ramp [m]."""
+        return self.s_to - self.s_from
+
+    @property
+    def duration(self) -> float:
+        """Duration of the ramp [s]."""
+        return self.t_to - self.t_from
+
+    @classmethod
+    def nan(cls) -> Ramp:
+        """A ramp of a trajectory that could not be evaluated."""
+        return cls(np.nan, np.nan, np.nan, np.nan, np.nan, "none")
 
 
 @dataclass(frozen=True)
 class TimingCheck:
     """Numbers that say whether a timing law respects the bounds it was given.
 
-    ``feed_ratio`` is max over samples of sdot / v_max (<= 1 + rtol to pass). Jumps are the
-    largest left/right differences at interior breakpoints; ``c2`` says the acceleration jump
-    is at numerical-noise level.
+    SI units. ``feed_ratio`` is max over samples of sdot / v_max (<= 1 + rtol to pass). Jumps
+    are the largest left/right differences at interior breakpoints; ``c2`` says the
+    acceleration jump is at numerical-noise level. ``min_cutting_feed`` is the smallest feed
+    of the trajectory between ``start_ramp`` and ``stop_ramp`` (exact: taken at the
+    breakpoints and the roots of sddot, not on the samples); if the ramps meet, the feed
+    where they meet.
     """
 
     duration: float
@@ -31,7 +86,7 @@ class TimingCheck:
     feed_ratio: float
     worst_sample: int
     max_feed: float
-    min_feed_interior: float
+    min_cutting_feed: float
     max_accel: float
     max_jerk: float
     velocity_jump: float
@@ -41,6 +96,8 @@ class TimingCheck:
     joint_acceleration_ratio: float
     start_feed: float
     end_feed: float
+    start_ramp: Ramp = field(default_factory=Ramp.nan)
+    stop_ramp: Ramp = field(default_factory=Ramp.nan)
     problems: tuple[str, ...] = field(default_factory=tuple)
 
     @property
@@ -66,6 +123,102 @@ def breakpoint_jumps(trajectory: Trajectory, order: int) -> np.ndarray:
     return np.abs(left - right)
 
 
+def _events(trajectory: Trajectory) -> np.ndarray:
+    """Breakpoints and roots of sddot, sorted, near-duplicates merged: between two
+    consecutive events sddot has one sign."""
+    pp = trajectory.timing
+    x = pp.x
+    if pp.c.shape[0] > 2:
+        roots = pp.derivative(2).roots(discontinuity=False, extrapolate=False)
+        roots = roots[np.isfinite(roots) & (roots > x[0]) & (roots < x[-1])]
+    else:
+        roots = np.zeros(0)
+    ev = np.unique(np.concatenate([x, roots]))
+    keep = np.concatenate([[True], np.diff(ev) > _EVENT_TOL * max(x[-1] - x[0], 1e-300)])
+    keep[-1] = True
+    ev = ev[keep]
+    if ev.size >= 3 and ev[-1] - ev[-2] <= _EVENT_TOL * (x[-1] - x[0]):
+        ev = np.delete(ev, -2)  # the end must stay, its near twin goes
+    return ev
+
+
+def _bound_reached(trajectory: Trajectory, problem: ScheduleProblem, ev: np.ndarray,
+                   first: bool) -> float | None:
+    """Where a ramp over the events ``ev`` meets the feed bound, or None if it does not.
+
+    The feed is compared with ``(1 - BOUND_REACHED_RTOL) v_max(s)`` at :data:`_BOUND_POINTS`
+    points per event interval. ``first``: the end of the first event interval in which it
+    gets there (the feed rises to the bound until the interval ends); otherwise the start of
+    the last such interval (for the stop ramp, seen backwards).
+    """
+    pp = trajectory.timing
+    u = np.linspace(0.0, 1.0, _BOUND_POINTS, endpoint=False)
+    grid = np.append((ev[:-1, None] + np.diff(ev)[:, None] * u[None, :]).ravel(), ev[-1])
+    s = np.clip(pp(grid), problem.s[0], problem.s[-1])
+    gap = pp.derivative(1)(grid) - (1.0 - BOUND_REACHED_RTOL) * np.interp(
+        s, problem.s, problem.v_max)
+    at = np.flatnonzero(gap >= 0.0)
+    if at.size == 0:
+        return None
+    if first:
+        return float(ev[np.searchsorted(ev, grid[at[0]], side="left")])
+    return float(ev[np.searchsorted(ev, grid[at[-1]], side="right") - 1])
+
+
+def find_ramps(
+    trajectory: Trajectory, problem: ScheduleProblem, follow_bound: bool = True
+) -> tuple[Ramp, Ramp, float]:
+    """Start ramp, stop ramp and the minimum feed between them (the cutting feed).
+
+    Definition (independent of the sample spacing: only the polynomial s(t) and v_max(s),
+    linear between samples, enter):
+
+    - **start ramp**: from t = 0 to the first instant at which the feed stops increasing
+      (sddot <= 0, i.e. a plateau or a maximum of the feed; found exactly at the roots of
+      sddot and at breakpoints) or, if ``follow_bound``, reaches the feed bound
+      (sdot >= (1 - :data:`BOUND_REACHED_RTOL`) v_max(s)), whichever comes first. In the
+      second case the ramp ends with the event interval (polynomial piece, or stretch between
+      roots of sddot) in which the feed gets there, so it reaches the bound itself rather
+      than 0.1 % below it, and a law that then follows a rising bound (topp, convex) is not
+      counted as ramping all along;
+    - **stop ramp**: the same seen backwards from the end: from the last instant at which
+      the feed stops decreasing towards the end or is at the bound, to the end;
+    - **cutting feed**: the minimum of sdot(t) between the two ramps, exact (at breakpoints
+      and roots of sddot, where the extrema of sdot lie); if the ramps meet, the feed there.
+
+    ``follow_bound=False`` is for the constant baseline, which ignores the bound: its ramps
+    end where its feed levels off.
+    """
+    pp = trajectory.timing
+    ev = _events(trajectory)
+    d1, d2 = pp.derivative(1), pp.derivative(2)
+    acc = d2(0.5 * (ev[:-1] + ev[1:]))
+    flat = _FLAT_ACCEL_RTOL * max(float(np.max(np.abs(acc), initial=0.0)), 1e-300)
+    not_rising = np.flatnonzero(acc <= flat)
+    not_falling = np.flatnonzero(acc >= -flat)
+    i_up = int(not_rising[0]) if not_rising.size else ev.size - 1
+    i_dn = int(not_falling[-1]) + 1 if not_falling.size else 0
+    t_up, t_dn = float(ev[i_up]), float(ev[i_dn])
+    why_up = "flat" if not_rising.size else "path"
+    why_dn = "flat" if not_falling.size else "path"
+    if follow_bound:
+        hit = _bound_reached(trajectory, problem, ev[: i_up + 1], first=True)
+        if hit is not None and hit < t_up:
+            t_up, why_up = hit, "bound"
+        hit = _bound_reached(trajectory, problem, ev[i_dn:], first=False)
+        if hit is not None and hit > t_dn:
+            t_dn, why_dn = hit, "bound"
+    t0, t1 = float(pp.x[0]), float(pp.x[-1])
+    lo, hi = min(t_up, t_dn), max(t_up, t_dn)
+    inside = ev[(ev > lo) & (ev < hi)]
+    cutting = float(np.min(d1(np.concatenate([[lo, hi], inside]))))
+    s_up, s_dn = pp(np.array([t_up, t_dn]))
+    s0, s1 = pp(np.array([t0, t1]))
+    start = Ramp(float(s0), float(s_up), t0, t_up, float(d1(t_up)), why_up)
+    stop = Ramp(float(s_dn), float(s1), t_dn, t1, float(d1(t_dn)), why_dn)
+    return start, stop, cutting
+
+
 def check_timing(
     trajectory: Trajectory,
     problem: ScheduleProblem,
@@ -81,7 +234,8 @@ def check_timing(
         Relative tolerance on every bound (feed, acceleration, jerk, joint limits).
     enforce_feed_bound : bool
         False for the ``constant`` baseline, which by definition ignores v_max: its feed
-        ratio is still measured but not counted as a problem.
+        ratio is still measured but not counted as a problem, and its ramps end where its
+        feed levels off (:func:`find_ramps` with ``follow_bound=False``).
     c2_tol : float, optional
         Largest acceleration jump [m/s^2] still counted as continuous; default
         ``1e-6 * max(1, max|sddot|)``, i.e. numerical noise.
@@ -96,8 +250,8 @@ def check_timing(
     worst = int(np.argmax(ratio))
     if enforce_feed_bound and ratio[worst] > 1 + rtol:
         problems.append(
-            f"feed {motion.sdot[worst] * 1e3:.6g} mm/s exceeds its bound "
-            f"{problem.v_max[worst] * 1e3:.6g} mm/s at s = {problem.s[worst] * 1e3:.3f} mm "
+            f"feed {motion.sdot[worst] / MM:.6g} mm/s exceeds its bound "
+            f"{problem.v_max[worst] / MM:.6g} mm/s at s = {problem.s[worst] / MM:.3f} mm "
             f"(sample {worst}, ratio {ratio[worst]:.6f})"
         )
 
@@ -105,17 +259,31 @@ def check_timing(
     u = np.linspace(0.0, 1.0, _POINTS_PER_PIECE)
     t_dense = (pp.x[:-1, None] + np.diff(pp.x)[:, None] * u[None, :]).ravel()
     dense = trajectory.at(t_dense)
-    max_accel = float(np.max(np.abs(dense.sddot)))
-    max_jerk = float(np.max(np.abs(dense.sdddot)))
+    i_acc = int(np.argmax(np.abs(dense.sddot)))
+    i_jerk = int(np.argmax(np.abs(dense.sdddot)))
+    max_accel = float(abs(dense.sddot[i_acc]))
+    max_jerk = float(abs(dense.sdddot[i_jerk]))
+
+    def where(i: int) -> str:
+        return f"at t = {dense.t[i]:.4f} s, s = {dense.s[i] / MM:.3f} mm"
+
     if max_accel > problem.accel_max * (1 + rtol):
         problems.append(
-            f"tangential acceleration {max_accel:.6g} m/s^2 exceeds {problem.accel_max:.6g}"
+            f"tangential acceleration {max_accel / MM:.6g} mm/s^2 exceeds its limit "
+            f"{problem.accel_max / MM:.6g} mm/s^2 {where(i_acc)}"
         )
     if np.isfinite(problem.jerk_max) and trajectory.continuity >= 2:
         if max_jerk > problem.jerk_max * (1 + rtol):
-            problems.append(f"tangential jerk {max_jerk:.6g} m/s^3 exceeds {problem.jerk_max:.6g}")
-    if np.min(dense.sdot) < -1e-9 * max(1.0, float(np.max(dense.sdot))):
-        problems.append("the path velocity becomes negative (the tool would reverse)")
+            problems.append(
+                f"tangential jerk {max_jerk / MM:.6g} mm/s^3 exceeds its limit "
+                f"{problem.jerk_max / MM:.6g} mm/s^3 {where(i_jerk)}"
+            )
+    i_min = int(np.argmin(dense.sdot))
+    if dense.sdot[i_min] < -1e-9 * max(1.0, float(np.max(dense.sdot))):
+        problems.append(
+            f"the path velocity becomes negative ({dense.sdot[i_min] / MM:.4g} mm/s "
+            f"{where(i_min)}): the tool would reverse"
+        )
 
     v_jump = breakpoint_jumps(trajectory, 1)
     a_jump = breakpoint_jumps(trajectory, 2)
@@ -125,17 +293,29 @@ def check_timing(
     tol = c2_tol if c2_tol is not None else 1e-6 * max(1.0, max_accel)
     c2 = bool(aj <= tol and vj <= 1e-9 and s_jump.max(initial=0.0) <= 1e-12)
     if trajectory.continuity >= 2 and not c2:
-        problems.append(f"claims C2 but the acceleration jumps by {aj:.3g} m/s^2")
+        k = int(np.argmax(a_jump)) if a_jump.size else 0
+        at = (f" at t = {pp.x[k + 1]:.4f} s, s = {float(pp(pp.x[k + 1])) / MM:.3f} mm"
+              if a_jump.size else "")
+        problems.append(f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")
 
     # Joint velocity and acceleration at the samples.
     qd = problem.dq_ds * motion.sdot[:, None]
     qdd = problem.d2q_ds2 * motion.sdot[:, None] ** 2 + problem.dq_ds * motion.sddot[:, None]
-    jv = float(np.max(np.abs(qd) / problem.joint_velocity_max))
-    ja = float(np.max(np.abs(qdd) / problem.joint_acceleration_max))
-    if jv > 1 + rtol:
-        problems.append(f"joint velocity reaches {jv:.4f} of its limit")
-    if ja > 1 + rtol:
-        problems.append(f"joint acceleration reaches {ja:.4f} of its limit")
+    jv_ratio = np.abs(qd) / problem.joint_velocity_max
+    ja_ratio = np.abs(qdd) / problem.joint_acceleration_max
+    jv = float(np.max(jv_ratio))
+    ja = float(np.max(ja_ratio))
+    for what, unit, values, limits, r in (
+        ("velocity", "deg/s", qd, problem.joint_velocity_max, jv_ratio),
+        ("acceleration", "deg/s^2", qdd, problem.joint_acceleration_max, ja_ratio),
+    ):
+        if float(np.max(r)) > 1 + rtol:
+            i, j = np.unravel_index(int(np.argmax(r)), r.shape)
+            problems.append(
+                f"joint {j + 1} {what} {np.rad2deg(abs(values[i, j])):.4g} {unit} exceeds its "
+                f"limit {np.rad2deg(limits[j]):.4g} {unit} ({r[i, j]:.4f} x) at "
+                f"s = {problem.s[i] / MM:.3f} mm (sample {i})"
+            )
 
     # Boundary feeds at the first and last instant (inverting a flat s(t) at rest is
     # ill-conditioned, so these are not taken from the sample inversion).
@@ -143,20 +323,22 @@ def check_timing(
     start, end = float(ends.sdot[0]), float(ends.sdot[1])
     for name, got, want in (("start", start, problem.v_start), ("end", end, problem.v_end)):
         if abs(got - want) > 1e-9 + rtol * abs(want):
-            problems.append(f"{name} feed {got:.6g} m/s differs from the requested {want:.6g}")
+            problems.append(f"{name} feed {got / MM:.6g} mm/s differs from the requested "
+                            f"{want / MM:.6g} mm/s")
     if abs(trajectory.length - problem.length) > 1e-9 + 1e-9 * problem.length:
         problems.append(
-            f"covers {trajectory.length:.9g} m of a {problem.length:.9g} m path"
+            f"covers {trajectory.length / MM:.9g} mm of a {problem.length / MM:.9g} mm path"
         )
 
-    interior = motion.sdot[1:-1] if motion.sdot.size > 2 else motion.sdot
+    start_ramp, stop_ramp, cutting = find_ramps(trajectory, problem,
+                                                follow_bound=enforce_feed_bound)
     return TimingCheck(
         duration=trajectory.duration,
         lower_bound=problem.lower_bound_time(),
         feed_ratio=float(ratio[worst]),
         worst_sample=worst,
         max_feed=float(np.max(dense.sdot)),
-        min_feed_interior=float(np.min(interior)),
+        min_cutting_feed=cutting,
         max_accel=max_accel,
         max_jerk=max_jerk,
         velocity_jump=vj,
@@ -166,5 +348,7 @@ def check_timing(
         joint_acceleration_ratio=ja,
         start_feed=start,
         end_feed=end,
+        start_ramp=start_ramp,
+        stop_ramp=stop_ramp,
         problems=tuple(problems),
     )

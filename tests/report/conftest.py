@@ -19,7 +19,12 @@ def fake_summary(name: str = "triangle_slot", scale: float = 1.0) -> dict:
         "scenario": {"name": name, "deflection_limit_mm": 0.29},
         "laws": {
             "constant": row(100.0, None, 0.41, 4.23, 4.23),
-            "thesis": row(125.0, 110.0, 0.29, 4.02, 2.75),
+            "thesis": {**row(125.0, 110.0, 0.29, 4.02, 2.75),
+                       "start_ramp": {"length_mm": 0.16, "duration_s": 0.1153, "feed_mm_s": 2.771,
+                                      "s_from_mm": 0.0, "s_to_mm": 0.16, "ends_by": "flat"},
+                       "stop_ramp": {"length_mm": 0.2866, "duration_s": 0.1401,
+                                     "feed_mm_s": 4.091, "s_from_mm": 492.63,
+                                     "s_to_mm": 492.917, "ends_by": "bound"}},
             "topp": {**row(115.0, 110.0, 0.2899, 4.1, 2.6), "deflection_ratio": 0.9997},
         },
     }

@@ -30,7 +30,9 @@ def test_single_run_table_values():
     assert rows["constant"]["defl./limit"] == f"{0.41 / 0.29:.3f}"
     assert rows["constant"]["T* [s]"] == "-" and rows["constant"]["T/T*"] == "-"
     assert rows["topp"]["defl./limit"] == "1.000"  # given 0.9997 wins over 0.2899/0.29
-    assert th["max feed [mm/s]"] == "4.02" and th["min feed [mm/s]"] == "2.75"
+    assert th["max feed [mm/s]"] == "4.02" and th["min cutting feed [mm/s]"] == "2.75"
+    assert th["ramps start/stop [mm]"] == "0.16 / 0.2866"
+    assert rows["constant"]["ramps start/stop [mm]"] == "-"  # an older summary: no ramps
     assert th["verified"] == "yes" and th["C2"] == "yes"
 
 
