@@ -1,7 +1,10 @@
 """Scale constants: feedopt computes in SI (m, s, N, rad) and talks to users in mm and deg.
 
 ``MM`` is one millimetre expressed in metres: ``x_mm * MM`` is metres and ``x_m / MM`` is
-millimetres. Every module converts with this one constant.
+millimetres. ``MM_PER_M`` is its inverse, for code that works in millimetres internally (the
+SOCP and toppra are better conditioned in mm): ``x_m * MM_PER_M`` is millimetres. No other
+scale constant names a unit.
 """
 
 MM = 1e-3
+MM_PER_M = 1e3
