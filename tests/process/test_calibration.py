@@ -90,3 +90,12 @@ def test_bad_forces_csv(tmp_path, text, match):
     p.write_text(text)
     with pytest.raises(InputError, match=match):
         read_slot_forces(p)
+
+
+def test_shipped_table_3_2_is_the_shared_data() -> None:
+    from tests.process.conftest import SHARED_TABLE_3_2, TABLE_3_2
+
+    if not SHARED_TABLE_3_2.is_file():
+        pytest.skip(f"no shared/ beside the repository ({SHARED_TABLE_3_2}); the tests use "
+                    f"their own copy {TABLE_3_2}")
+    assert TABLE_3_2.read_bytes() == SHARED_TABLE_3_2.read_bytes()
