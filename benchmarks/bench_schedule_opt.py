@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from feedopt.schedule.checks import check_timing  # noqa: E402
-from feedopt.schedule.convex import plan_convex  # noqa: E402
+from feedopt.schedule.convex import ConvexOptions, plan_convex  # noqa: E402
 from feedopt.schedule.problem import ScheduleProblem  # noqa: E402
 from feedopt.schedule.topp import plan_topp  # noqa: E402
 
@@ -103,7 +103,7 @@ def main(quick: bool = False) -> dict:
     """Run the benchmark; returns ``{"<case>_<n>": {...timings and ratios...}}``."""
     sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000)
     plan_topp(triangle_slot(200))  # warm imports (toppra, cvxpy) out of the timings
-    plan_convex(triangle_slot(200), compare_topp=False)
+    plan_convex(triangle_slot(200), ConvexOptions(compare_topp=False))
     out = {}
     head = (f"{'case':14s} {'n':>7s} {'T* s':>8s} | {'topp s':>7s} {'T/T*':>8s} | "
             f"{'cvx s':>7s} {'socp s':>7s} {'grid':>5s} {'T/T*':>8s} {'gap':>8s} ok")

@@ -28,13 +28,16 @@ from feedopt.scenario import LAWS, load_scenario  # noqa: E402
 
 
 def _random_polyline_csv(folder: Path, seed: int = 7) -> Path:
-    """A random 2D polyline (12 corners, 30-60 mm legs, turns up to 120 deg) as a CSV."""
+    """A random 2D polyline (12 corners, 40-80 mm legs, turns up to 120 deg) as a CSV.
+
+    With 12.7 mm varying-radius blends every path radius stays above half the cutter radius
+    (the runner refuses tighter ones, feedopt.process.path_radius)."""
     rng = np.random.default_rng(seed)
     heading, p, pts = 0.0, np.zeros(3), [np.zeros(3)]
     for _ in range(13):
         heading += np.deg2rad(rng.uniform(-120, 120))
         heading = np.clip(heading, -np.pi / 2, np.pi / 2)  # keep going roughly +x
-        p = p + rng.uniform(30, 60) * np.array([np.cos(heading), np.sin(heading), 0.0])
+        p = p + rng.uniform(40, 80) * np.array([np.cos(heading), np.sin(heading), 0.0])
         pts.append(p)
     f = folder / "random_polyline.csv"
     np.savetxt(f, np.array(pts), delimiter=",", header="x_mm,y_mm,z_mm", comments="")
@@ -72,7 +75,7 @@ def main(quick: bool = False, sizes: list[int] | None = None, laws: list[str] | 
     with tempfile.TemporaryDirectory() as tmp:
         csv = _random_polyline_csv(Path(tmp))
         random_sc = scenario.model_copy(update={"path": scenario.path.model_copy(
-            update={"generator": "csv", "file": str(csv), "blend_size_mm": 5.0})})
+            update={"generator": "csv", "file": str(csv), "blend_size_mm": 12.7})})
         for n in sizes:
             for case, sc in (("triangle", scenario), ("random", random_sc)):
                 for row in bench(case, sc, base, n, laws):

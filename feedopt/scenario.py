@@ -14,13 +14,25 @@ import difflib
 from pathlib import Path
 from typing import Annotated, Literal, get_args, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from feedopt.errors import InputError
+from feedopt.geometry.registry import blend_names
+from feedopt.schedule.laws import LAWS as LAW_REGISTRY
+from feedopt.schedule.laws import law_names
 from feedopt.textio import read_user_text
 from feedopt.yamlio import excerpt, parse_yaml
 
-LAWS = ("constant", "thesis", "topp", "convex", "jerk")
+# Allowed laws and blends come from their registries (feedopt.schedule.laws,
+# feedopt.geometry.registry): a new law or blend kind needs no edit here.
+LAWS = law_names()  # the built-in laws, for defaults and CLI help
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Vector3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
@@ -70,14 +82,21 @@ class PathSection(_Strict):
                             "cut drifts to the right (-y) into the material (down milling)")
     file: str | None = Field(None, description="waypoint CSV for generator csv")
     z_mm: FiniteFloat = Field(0.0, description="height of generated waves in W (mm)")
-    blend: Literal["varying_radius", "circle", "bezier4", "bezier5", "none"] = Field(
-        "varying_radius", description="corner blend kind (thesis 3.3)")
+    blend: str = Field("varying_radius", description="corner blend kind (thesis 3.3): one of "
+                       "the registered kinds (feedopt path --help lists them) or none")
     blend_size_mm: PositiveFloat = Field(12.7, description="blend radius (circle, "
                                          "varying_radius) or tolerance (bezier4/5) (mm)")
     spacing_mm: Annotated[float, Field(ge=0.001, allow_inf_nan=False)] = Field(
         0.1, description="sample spacing along the path (mm, >= 0.001)")
     drop_repeated_waypoints: bool = Field(False, description="drop repeated consecutive "
                                           "waypoints (and say so) instead of refusing them")
+
+    @field_validator("blend")
+    @classmethod
+    def _known_blend(cls, value: str) -> str:
+        if value not in blend_names():
+            raise ValueError(f"unknown blend {value!r}; choose one of {', '.join(blend_names())}")
+        return value
 
     @model_validator(mode="after")
     def _needs_file(self) -> PathSection:
@@ -179,14 +198,48 @@ class LimitsSection(_Strict):
 
 
 class ScheduleSection(_Strict):
-    laws: list[Literal["constant", "thesis", "topp", "convex", "jerk"]] = Field(
-        list(LAWS), min_length=1, description="timing laws to run")
+    laws: list[str] = Field(list(LAWS), min_length=1, description="timing laws to run: "
+                            + ", ".join(LAWS))
+    law_options: dict[str, dict] = Field(
+        {}, description="per-law options, e.g. {convex: {...}}; the fields of each law are "
+        "listed under schedule.law_options.<law> below")
     key_point_spacing_mm: Annotated[float, Field(ge=0)] = Field(
         0.0, description="chapter-4 key points every l along lines (0: chapter-3 law)")
     angle_step_deg: Annotated[float, Field(ge=0.01, le=10)] = Field(
         1.0, description="cutter angle step of the force model (slice entry/exit angles are "
         "always added)")
     axial_slices: Annotated[int, Field(ge=1, le=500)] = Field(20, description="axial slices")
+
+    @field_validator("laws")
+    @classmethod
+    def _known_laws(cls, value: list[str]) -> list[str]:
+        unknown = [law for law in value if law not in LAW_REGISTRY]
+        if unknown:
+            raise ValueError(f"unknown law(s) {', '.join(map(repr, unknown))}; choose from "
+                             f"{', '.join(LAW_REGISTRY)}")
+        return value
+
+    @model_validator(mode="after")
+    def _valid_options(self) -> ScheduleSection:
+        for law in self.law_options:
+            if law not in LAW_REGISTRY:
+                raise ValueError(f"law_options.{law}: unknown law; choose from "
+                                 f"{', '.join(LAW_REGISTRY)}")
+            self.options_for(law)
+        return self
+
+    def options_for(self, law: str) -> BaseModel:
+        """The validated options of ``law`` (its defaults where the scenario sets none)."""
+        model = LAW_REGISTRY[law].options_model()
+        try:
+            return model.model_validate(self.law_options.get(law, {}))
+        except ValidationError as exc:
+            problems = "; ".join(
+                f"law_options.{law}.{'.'.join(str(p) for p in e['loc'])}: {e['msg']}"
+                + (f" (valid: {', '.join(model.model_fields)})"
+                   if e["type"] == "extra_forbidden" else "")
+                for e in exc.errors())
+            raise ValueError(problems) from None
 
 
 #: RSI sensor cycles a KRC4 runs (ms): IPO_FAST (4 ms) and IPO mode (12 ms).
@@ -340,4 +393,8 @@ def schema_reference() -> str:
                            f"{_type_name(ann)})")
 
     walk(Scenario, "")
+    out += ["", "## Timing laws and their options (schedule.law_options.<law>)", ""]
+    for name, spec in LAW_REGISTRY.items():
+        out.append(f"- **{name}**: {spec.description}")
+        walk(spec.options_model(), f"schedule.law_options.{name}.")
     return "\n".join(out) + "\n"

@@ -20,18 +20,36 @@ mm/s^3) with the unit written, limits included.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
-from feedopt.schedule.checks import TimingCheck, check_timing
+from feedopt.schedule.checks import TimingCheck, Violation, check_timing
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
 
-# Laws that by definition ignore the deflection bound (the thesis baseline): their
-# exceedance is measured and reported, but it is the expected result, not a failure.
-BASELINE_LAWS = frozenset({"constant"})
+
+def _spec(law: str):
+    from feedopt.schedule.laws import LAWS
+
+    return LAWS.get(law)
+
+
+def is_baseline(law: str) -> bool:
+    """True for a law that ignores the deflection bound by design (registry metadata): its
+    exceedance is measured and reported, but it is the expected result, not a failure."""
+    spec = _spec(law)
+    return bool(spec is not None and spec.baseline)
+
+
+class Verdict(Enum):
+    """Outcome of replaying a trajectory."""
+
+    EXPORTABLE = "verified, exportable"  # kept its promises and meets the export rules
+    VERIFIED = "verified, not exportable"  # kept its promises (a baseline, a C1 law)
+    FAILED = "FAILED VERIFICATION"  # broke a promise it makes
 
 
 @dataclass(frozen=True)
@@ -60,6 +78,12 @@ class Verification:
         return self.verified and not self.export_blockers
 
     @property
+    def verdict(self) -> Verdict:
+        if not self.verified:
+            return Verdict.FAILED
+        return Verdict.EXPORTABLE if self.exportable else Verdict.VERIFIED
+
+    @property
     def max_deflection(self) -> float:
         return float(self.deflection[self.worst_sample])
 
@@ -82,7 +106,7 @@ def verify_trajectory(
     computed (the runner replays all laws in one pass over the forces); otherwise it is
     computed here.
     """
-    baseline = trajectory.law in BASELINE_LAWS
+    baseline = is_baseline(trajectory.law)
     if not is_finite(trajectory):
         return _non_finite(trajectory, problem, limit)
     timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline)
@@ -92,6 +116,10 @@ def verify_trajectory(
     worst = int(np.argmax(deflection))
     meets = bool(deflection[worst] <= limit * (1 + rtol))
     problems = list(timing.problems)
+    spec = _spec(trajectory.law)
+    if spec is not None and trajectory.continuity < spec.continuity:
+        problems.append(f"the {trajectory.law} law promises C{spec.continuity} but returned a "
+                        f"C{trajectory.continuity} trajectory")
     warnings: list[str] = list(trajectory.notes)
     if not meets:
         msg = (
@@ -148,10 +176,35 @@ def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) 
         feed_ratio=np.nan, worst_sample=0, max_feed=np.nan, min_cutting_feed=np.nan,
         max_accel=np.nan, max_jerk=np.nan, velocity_jump=np.nan, accel_jump=np.nan, c2=False,
         joint_velocity_ratio=np.nan, joint_acceleration_ratio=np.nan, start_feed=np.nan,
-        end_feed=np.nan, problems=(msg,),
+        end_feed=np.nan, problems=(msg,), violations=Violation.NON_FINITE,
     )
     return Verification(
         law=trajectory.law, timing=timing, feed=nan, deflection=nan, limit=limit,
         worst_sample=0, meets_limit=False, verified=False, problems=(msg,),
         warnings=tuple(trajectory.notes), export_blockers=(msg,),
     )
+
+
+def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
+               model: DeflectionModel, limit: float) -> dict[str, tuple[Verification, float]]:
+    """Verify every trajectory, replaying the forces of all of them in one pass.
+
+    Returns ``{law: (verification, seconds)}``; the shared force pass is split evenly among
+    the laws that could be replayed.
+    """
+    import time
+
+    t0 = time.perf_counter()
+    replayable = [law for law, traj in trajectories.items() if is_finite(traj)]
+    replay = {}
+    if replayable:
+        feeds = np.stack([np.maximum(trajectories[law].feed_at(problem.s), 0.0)
+                          for law in replayable])
+        replay = dict(zip(replayable, model.deflection(feeds), strict=True))
+    shared = (time.perf_counter() - t0) / max(len(replayable), 1)
+    out = {}
+    for law, traj in trajectories.items():
+        t1 = time.perf_counter()
+        ver = verify_trajectory(traj, problem, model, limit, deflection=replay.get(law))
+        out[law] = (ver, shared + time.perf_counter() - t1)
+    return out

@@ -6,33 +6,18 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from feedopt.errors import InputError
 from feedopt.runner import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENARIOS = ROOT / "scenarios"
 
 
-def _scenario(tmp_path: Path, name: str, **changes) -> Path:
-    doc = yaml.safe_load((SCENARIOS / f"{name}.yaml").read_text())
-    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
-    doc["tool"] = str(SCENARIOS / doc["tool"])
-    doc["material"] = str(SCENARIOS / doc["material"])
-    for dotted, value in changes.items():
-        section, key = dotted.split("__")
-        doc[section][key] = value
-    p = tmp_path / f"{name}.yaml"
-    p.write_text(yaml.safe_dump(doc))
-    return p
-
-
-def test_ur10_run_carries_placeholder_warnings_and_writes_no_krl(tmp_path) -> None:
+def test_ur10_run_carries_placeholder_warnings_and_writes_no_krl(tmp_path, quick_scenario) -> None:
     # UR10 at q0 = (0, -90, 90, -90, -90, 0) deg: TCP at (-688, -163.9, 447.1) mm, TCP z up,
     # TCP x along base +y (FK); the workpiece frame is put there so the path starts at q0.
-    p = _scenario(
-        tmp_path, "linear_peripheral",
+    p = quick_scenario(
+        "linear_peripheral",
         robot__directory=str(ROOT / "robots" / "ur10"),
         robot__start_configuration_deg=[0, -90, 90, -90, -90, 0],
         workpiece__position_mm=[-688.0, -163.941, 447.1],
@@ -51,8 +36,8 @@ def test_ur10_run_carries_placeholder_warnings_and_writes_no_krl(tmp_path) -> No
     assert result.prepared.robot.controller == "ur"
 
 
-def test_square_slot_warns_about_its_tight_corner(tmp_path) -> None:
-    p = _scenario(tmp_path, "square_slot", path__spacing_mm=1.0,
+def test_square_slot_warns_about_its_tight_corner(tmp_path, quick_scenario) -> None:
+    p = quick_scenario("square_slot", path__spacing_mm=1.0,
                   schedule__laws=["constant", "jerk"])
     messages: list[str] = []
     result = run_scenario(p, out_dir=tmp_path / "out", progress=messages.append, report=False)
@@ -66,8 +51,9 @@ def test_square_slot_warns_about_its_tight_corner(tmp_path) -> None:
     assert "varying_radius blend of corner" in radius[0]
 
 
-def test_path_much_tighter_than_the_cutter_is_refused_before_planning(tmp_path) -> None:
-    p = _scenario(tmp_path, "square_slot", path__blend="circle", path__blend_size_mm=3.0)
+def test_path_much_tighter_than_the_cutter_is_refused_before_planning(
+        tmp_path, quick_scenario) -> None:
+    p = quick_scenario("square_slot", path__blend="circle", path__blend_size_mm=3.0)
     messages: list[str] = []
     with pytest.raises(InputError, match=r"tightest path radius is 3 mm.*meaningless"):
         run_scenario(p, out_dir=tmp_path / "out", progress=messages.append)
@@ -75,11 +61,12 @@ def test_path_much_tighter_than_the_cutter_is_refused_before_planning(tmp_path) 
     assert not (tmp_path / "out").exists()
 
 
-def test_krl_segment_cap_skips_krl_only_and_is_said_up_front(tmp_path, monkeypatch) -> None:
+def test_krl_segment_cap_skips_krl_only_and_is_said_up_front(
+        tmp_path, monkeypatch, quick_scenario) -> None:
     import feedopt.export.krl as krl
 
     monkeypatch.setattr(krl, "MAX_SEGMENTS", 5)
-    p = _scenario(tmp_path, "triangle_slot", path__spacing_mm=2.0,
+    p = quick_scenario("triangle_slot", path__spacing_mm=2.0,
                   schedule__laws=["thesis", "jerk"])
     messages: list[str] = []
     result = run_scenario(p, out_dir=tmp_path / "out", progress=messages.append, report=False)

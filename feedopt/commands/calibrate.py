@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out and not Path(args.out).resolve().parent.is_dir():
         raise InputError(f"--out: directory {Path(args.out).resolve().parent} does not exist")
     rows = read_slot_forces(args.forces_csv)
-    cals = calibrate(rows, args.teeth, args.axial_depth_mm * 1e-3)
+    cals = calibrate(rows, args.teeth, args.axial_depth_mm * MM)
 
     print(
         f"{'rpm':>6} {'Ktc':>7} {'Kte':>7} {'Krc':>7} {'Kre':>7} {'Kac':>7} {'Kae':>7}   "

@@ -14,7 +14,7 @@ from feedopt.process.coefficients import feed_per_tooth_warning, load_coefficien
 from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
 from feedopt.process.forces import feed_per_tooth, milling_forces
 from feedopt.process.tool import load_tool
-from feedopt.units import MM
+from feedopt.units import MM, MM_PER_M
 
 HEADER = "angle_deg,fx_n,fy_n,fz_n,f_n,torque_nm,power_w"
 
@@ -184,13 +184,13 @@ def run(args: argparse.Namespace) -> int:
     fxy = np.hypot(f[:, 0], f[:, 1])
 
     print(
-        f"tool {tool.name}: D {tool.diameter * 1e3:g} mm, {tool.teeth} teeth, helix "
+        f"tool {tool.name}: D {tool.diameter * MM_PER_M:g} mm, {tool.teeth} teeth, helix "
         f"{math.degrees(tool.helix):g} deg"
     )
     print(
-        f"{rpm:g} rpm, feed {feed * 1e3:g} mm/s -> c = {c * 1e3:.5f} mm/tooth; a = {a * 1e3:g} mm, "
-        f"a_e = {ae * 1e3:g} mm, {args.milling} milling: entry {math.degrees(eng.entry[0]):.2f} "
-        f"deg, exit {math.degrees(eng.exit[0]):.2f} deg"
+        f"{rpm:g} rpm, feed {feed * MM_PER_M:g} mm/s -> c = {c * MM_PER_M:.5f} mm/tooth; "
+        f"a = {a * MM_PER_M:g} mm, a_e = {ae * MM_PER_M:g} mm, {args.milling} milling: "
+        f"entry {math.degrees(eng.entry[0]):.2f} deg, exit {math.degrees(eng.exit[0]):.2f} deg"
     )
     mean = f.mean(axis=0)
     print(f"mean force  Fx {mean[0]:9.2f} N  Fy {mean[1]:9.2f} N  Fz {mean[2]:9.2f} N")

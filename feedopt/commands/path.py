@@ -9,16 +9,29 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.geometry import waves
-from feedopt.geometry.blends import BLEND_KINDS
 from feedopt.geometry.continuity import continuity_report
-from feedopt.geometry.path import REPEAT_TOL, build_lipb_path
+from feedopt.geometry.path import Path, build_lipb_path
+from feedopt.geometry.registry import NO_BLEND, blend_names, get_blend, size_parameters
 from feedopt.geometry.waypoints import read_waypoints_csv
-from feedopt.units import MM
+from feedopt.units import MM, MM_PER_M
 
 BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.square_wave,
            "builtin:line": waves.straight_line}
 MAX_SAMPLES = 20_000_000
 HEADER = "s_mm,x_mm,y_mm,z_mm,tx,ty,tz,kx_1_mm,ky_1_mm,kz_1_mm"
+DEFAULT_BLEND = "varying_radius"
+REPEAT_HINT = "pass --drop-repeated"
+# options of feedopt path itself: a size parameter may not be called like one of them
+_FIXED_OPTIONS = ("--help", "--blend", "--spacing", "--out", "--plot", "--drop-repeated",
+                  "--max-rows")
+
+
+def _option(size_name: str) -> str:
+    return "--" + size_name.replace("_", "-")
+
+
+def _dest(size_name: str) -> str:
+    return f"size_{size_name}"
 
 
 def add_parser(subparsers) -> None:
@@ -31,12 +44,15 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm, or one of "
                    + ", ".join(BUILTIN) + " (thesis test paths)")
-    p.add_argument("--blend", choices=BLEND_KINDS, default="varying_radius",
-                   help="corner blend (default: varying_radius)")
-    p.add_argument("--radius", type=float, metavar="MM",
-                   help="blend radius for circle / varying_radius [mm]")
-    p.add_argument("--tolerance", type=float, metavar="MM",
-                   help="blend tolerance delta for bezier4 / bezier5 [mm]")
+    p.add_argument("--blend", choices=blend_names(), default=DEFAULT_BLEND,
+                   help=f"corner blend (default: {DEFAULT_BLEND})")
+    # one size option per size parameter of the registered blend kinds (--radius, ...)
+    for name, (size, kinds) in size_parameters().items():
+        if _option(name) in _FIXED_OPTIONS:
+            raise RuntimeError(f"blend {kinds[0]} names its size {name!r}, which clashes with "
+                               f"feedopt path's own option {_option(name)}; rename it")
+        p.add_argument(_option(name), type=float, metavar="MM", dest=_dest(name),
+                       help=f"{size.meaning}; for {' / '.join(kinds)}")
     p.add_argument("--spacing", type=float, default=0.1, metavar="MM",
                    help="sample spacing along s [mm] (default 0.1)")
     p.add_argument("--out", metavar="CSV", help="write the samples here")
@@ -59,23 +75,28 @@ def _positive_mm(value: float, option: str, example: str) -> float:
 
 
 def _size(args: argparse.Namespace) -> float:
-    if args.blend in ("circle", "varying_radius"):
-        if args.tolerance is not None:
-            raise InputError(f"--tolerance is for bezier blends; {args.blend} takes --radius")
-        if args.radius is None:
-            raise InputError(f"blend {args.blend} needs --radius MM (e.g. --radius 12.7)")
-        return _positive_mm(args.radius, "--radius", "12.7")
-    if args.blend in ("bezier4", "bezier5"):
-        if args.radius is not None:
-            raise InputError(f"--radius is for circle/varying_radius; {args.blend} takes "
-                             "--tolerance MM")
-        if args.tolerance is None:
-            raise InputError(f"blend {args.blend} needs --tolerance MM (e.g. --tolerance 12.7)")
-        return _positive_mm(args.tolerance, "--tolerance", "12.7")
-    for value, option in ((args.radius, "--radius"), (args.tolerance, "--tolerance")):
-        if value is not None:
-            raise InputError(f"{option} sizes a blend; --blend none has none (drop {option})")
-    return 0.0
+    """The blend size [m] from the one size option of the chosen kind; InputError for a
+    size option of another kind, a missing one, or any size option with ``--blend none``."""
+    kind = get_blend(args.blend)
+    given = {name: getattr(args, _dest(name)) for name in size_parameters()
+             if getattr(args, _dest(name), None) is not None}
+    if kind is None:
+        if given:
+            option = _option(next(iter(given)))
+            raise InputError(f"{option} sizes a blend; --blend {NO_BLEND} has none (drop "
+                             f"{option})")
+        return 0.0
+    own = _option(kind.size.name)
+    other = next((name for name in given if name != kind.size.name), None)
+    if other is not None:
+        users = " / ".join(size_parameters()[other][1])
+        raise InputError(f"{_option(other)} is for {users}; {args.blend} takes {own} MM")
+    if not hasattr(args, _dest(kind.size.name)):  # kind registered after the parser was built
+        raise InputError(f"blend {args.blend} takes {own}, which this command line does not "
+                         "have; register the blend before building the parser")
+    if kind.size.name not in given:
+        raise InputError(f"blend {args.blend} needs {own} MM (e.g. {own} 12.7)")
+    return _positive_mm(given[kind.size.name], own, "12.7")
 
 
 def _check_out(name: str, option: str) -> None:
@@ -85,6 +106,24 @@ def _check_out(name: str, option: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    size, spacing = _check_args(args)
+    w = BUILTIN[args.waypoints]() if args.waypoints in BUILTIN else read_waypoints_csv(
+        args.waypoints)
+    path = build_lipb_path(w, args.blend, size, drop_repeated=args.drop_repeated,
+                           repeat_hint=REPEAT_HINT)
+    n = int(np.ceil(path.length / spacing)) + 1
+    if n > MAX_SAMPLES:
+        raise InputError(
+            f"--spacing {args.spacing} mm gives {n} samples over {path.length * MM_PER_M:.6g} mm "
+            f"(limit {MAX_SAMPLES}); use a spacing of at least "
+            f"{path.length * MM_PER_M / (MAX_SAMPLES - 1):.3g} mm")
+    _print_summary(args, path, len(w), size)
+    _write_outputs(args, path, spacing, w)
+    return 0
+
+
+def _check_args(args: argparse.Namespace) -> tuple[float, float]:
+    """Blend size and spacing [m]; every option checked before anything is read or built."""
     size = _size(args)
     spacing = _positive_mm(args.spacing, "--spacing", "0.1")
     if args.max_rows < 0:
@@ -99,36 +138,32 @@ def run(args: argparse.Namespace) -> int:
     for name, opt in ((args.out, "--out"), (args.plot, "--plot")):
         if name:
             _check_out(name, opt)
-    if args.waypoints in BUILTIN:
-        w = BUILTIN[args.waypoints]()
-    else:
-        w = read_waypoints_csv(args.waypoints)
-    n_raw = len(w)
-    path = build_lipb_path(w, args.blend, size, drop_repeated=args.drop_repeated)
-    n = int(np.ceil(path.length / spacing)) + 1
-    if n > MAX_SAMPLES:
-        raise InputError(
-            f"--spacing {args.spacing} mm gives {n} samples over {path.length * 1e3:.6g} mm "
-            f"(limit {MAX_SAMPLES}); use a spacing of at least "
-            f"{path.length * 1e3 / (MAX_SAMPLES - 1):.3g} mm")
-    report = continuity_report(path)
+    return size, spacing
 
+
+def _print_summary(args: argparse.Namespace, path: Path, n_raw: int, size: float) -> None:
+    """Waypoints, dropped waypoints, blend, segments and the continuity table."""
+    report = continuity_report(path)
     kinds = path.segment_kind
     counts = ", ".join(f"{k} {kinds.count(k)}" for k in dict.fromkeys(kinds))
     used = len({g.corner_index for g in path.segments if g.corner_index >= 0})
     print(f"waypoints: {n_raw} (from {args.waypoints})")
-    rep = np.flatnonzero(np.linalg.norm(np.diff(w, axis=0), axis=1) <= REPEAT_TOL) + 1
-    if rep.size:
-        shown = ", ".join(str(i) for i in rep[:10]) + (" ..." if rep.size > 10 else "")
-        print(f"dropped {rep.size} repeated waypoint(s): indices {shown}")
-    print(f"blend: {args.blend}" + (f", size {size * 1e3:g} mm" if size else "")
+    rep = path.dropped_waypoints
+    if rep:
+        shown = ", ".join(str(i) for i in rep[:10]) + (" ..." if len(rep) > 10 else "")
+        print(f"dropped {len(rep)} repeated waypoint(s): indices {shown}")
+    print(f"blend: {args.blend}" + (f", size {size * MM_PER_M:g} mm" if size else "")
           + f", {used} corner(s) blended")
-    print(f"path length: {path.length * 1e3:.6f} mm, segments: {len(kinds)} ({counts})")
+    print(f"path length: {path.length * MM_PER_M:.6f} mm, segments: {len(kinds)} ({counts})")
     print(report.table(max_rows=args.max_rows or None))
+
+
+def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.ndarray) -> None:
+    """The samples CSV (--out) and the figure (--plot)."""
     if args.out:
         pts = path.sample(spacing)
-        data = np.column_stack([pts.s * 1e3, pts.position * 1e3, pts.tangent,
-                                pts.curvature * 1e-3])
+        data = np.column_stack([pts.s * MM_PER_M, pts.position * MM_PER_M, pts.tangent,
+                                pts.curvature * MM])  # curvature 1/m -> 1/mm
         np.savetxt(args.out, data, delimiter=",", header=HEADER, comments="", fmt="%.12g")
         print(f"wrote {len(pts.s)} samples to {args.out}")
     if args.plot:
@@ -137,4 +172,3 @@ def run(args: argparse.Namespace) -> int:
         plot_path(path, args.plot, spacing=max(spacing, path.length / 20000), waypoints=w,
                   title=f"{args.waypoints}: {args.blend}")
         print(f"wrote {args.plot}")
-    return 0

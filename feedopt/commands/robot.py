@@ -8,6 +8,7 @@ import sys
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.robot.ik import IKOptions
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.robot.model import (
     forward_kinematics,
@@ -20,11 +21,14 @@ from feedopt.robot.stiffness import (
     deflection,
     joint_stiffness,
 )
+from feedopt.units import MM
 
 #: Condition number (1 m length scale) above which a pose is near-singular: the default
-#: ``max_condition`` of :func:`feedopt.robot.ik.solve_path_ik`, so ``feedopt run`` refuses
+#: ``max_condition`` of :class:`feedopt.robot.ik.IKOptions`, so ``feedopt run`` refuses
 #: such a pose on a path (KR500-3 wrist: |A5| below about 3 deg).
-NEAR_SINGULAR = 100.0
+NEAR_SINGULAR = IKOptions().max_condition
+#: robot.yaml and this command give joint stiffness in MN m/rad.
+_NM_PER_MNM = 1e6
 #: Above this the smallest singular value is rounding noise: the pose is exactly singular.
 SINGULAR = 1e12
 #: Joints whose share of the null-motion vector exceeds this are named in the warning.
@@ -115,10 +119,10 @@ def run(args: argparse.Namespace) -> int:
     k3 = np.linalg.inv(c3[0])
     evals, evecs = np.linalg.eigh(0.5 * (k3 + k3.T))
     abc = abc_from_rotation(pose[:3, :3])
-    xyz = pose[:3, 3] * 1e3
+    xyz = pose[:3, 3] / MM
 
     print(f"robot: {robot.name}   stiffness set: {args.stiffness}")
-    print("joint stiffness [MNm/rad]: " + " ".join(f"{v / 1e6:.3f}" for v in k))
+    print("joint stiffness [MNm/rad]: " + " ".join(f"{v / _NM_PER_MNM:.3f}" for v in k))
     print(
         f"TCP pose: X={xyz[0]:.3f} Y={xyz[1]:.3f} Z={xyz[2]:.3f} mm  "
         f"A={abc[0]:.3f} B={abc[1]:.3f} C={abc[2]:.3f} deg"
@@ -129,14 +133,14 @@ def run(args: argparse.Namespace) -> int:
     if warning:
         print(f"feedopt robot: warning: {warning}", file=sys.stderr)
     print("translational stiffness at the TCP [N/mm] (base axes x, y, z):")
-    for row in k3 * 1e-3:
+    for row in k3 * MM:  # N/m -> N/mm
         print("  " + " ".join(f"{v:12.2f}" for v in row))
     print("principal stiffnesses [N/mm] and directions (base frame):")
     for i in np.argsort(evals)[::-1]:
         d = evecs[:, i]
-        print(f"  {evals[i] * 1e-3:12.2f}  along [{d[0]:+.4f}, {d[1]:+.4f}, {d[2]:+.4f}]")
+        print(f"  {evals[i] * MM:12.2f}  along [{d[0]:+.4f}, {d[1]:+.4f}, {d[2]:+.4f}]")
     if force is not None:
-        dx = deflection(c3, force[None])[0] * 1e3
+        dx = deflection(c3, force[None])[0] / MM
         print(
             f"force [N]: {force[0]:.2f} {force[1]:.2f} {force[2]:.2f} -> deflection [mm]: "
             f"dx={dx[0]:.5f} dy={dx[1]:.5f} dz={dx[2]:.5f} |d|={np.linalg.norm(dx):.5f}"

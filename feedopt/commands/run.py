@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from feedopt.errors import InputError
-from feedopt.scenario import LAWS
+from feedopt.schedule.laws import LAWS
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.export.job import Exporter, ExportJob
+from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
 # KSS 8.x: a spline block holds at most 1000 segments (pass key points, not dense samples).
@@ -274,3 +276,70 @@ def parse_krl_spline(text: str) -> list[dict]:
             seg["vel_m_s"] = float(vm["v"]) if vm else None
         result.append(seg)
     raise InputError(f"KRL SPLINE block opened on line {start + 1} has no ENDSPLINE")
+
+
+def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """Key points for the native-controller program: segment ends (thesis section 3.7).
+
+    Lines end in an ``SLIN`` at the law's feed in the middle of the line; blends get two
+    ``SPL`` points (middle and end) at the law's lowest feed through the blend. Returns the
+    (n, 6) poses (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg].
+    """
+    from feedopt.robot.kuka import abc_from_rotation
+    from feedopt.robot.model import forward_kinematics
+
+    s_pts, motions, vels = [0.0], [], []
+    feed_at = job.trajectory.feed_at
+    for a, b, kind in job.problem.segments():
+        if kind == "line":
+            s_pts.append(b)
+            motions.append("SLIN")
+            vels.append(float(feed_at(np.array([0.5 * (a + b)]))[0]))
+        else:  # blends: the controller's spline through the blend middle and end
+            v = float(np.min(feed_at(np.linspace(a, b, 9))))
+            s_pts += [0.5 * (a + b), b]
+            motions += ["SPL", "SPL"]
+            vels += [v, v]
+    s_arr = np.asarray(s_pts)
+    q = job.q_of_s(s_arr)
+    pose = forward_kinematics(job.robot, q)
+    points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
+    return points, motions, np.maximum(np.asarray(vels), 1e-6), np.rad2deg(q[0])
+
+
+def segment_count(path) -> int:
+    """Spline segments :func:`key_points` makes for ``path`` (one per line, two per blend)."""
+    return sum(1 if seg.kind == "line" else 2 for seg in path.segments)
+
+
+def early_check(robot, path) -> str | None:
+    """Why no KRL program can be written for this robot and path, known before planning."""
+    if robot.controller != "kuka":
+        return (f"no KRL program: robot {robot.name} has controller '{robot.controller}' "
+                "(robot.yaml), KRL is for KUKA controllers")
+    n_segments = segment_count(path)
+    if n_segments > MAX_SEGMENTS:
+        return (f"no KRL program: the path's key points make {n_segments} spline segments, "
+                f"more than the {MAX_SEGMENTS} a KSS 8.x SPLINE block holds; the RSI CSVs are "
+                "written as usual")
+    return None
+
+
+def export_krl(job: ExportJob, out_dir: Path) -> dict:
+    """Write ``<law>.src``: the law's segment feeds as ``$VEL.CP`` at the key points."""
+    ver = job.verification
+    pts, motions, vels, q0 = key_points(job)
+    write_krl_program(out_dir / f"{job.law}.src", None, pts, motions, vels, q0, comments=[
+        f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with the "
+        "law's segment feeds as $VEL.CP",
+        *([] if ver.exportable else [f"NOT EXPORTABLE: {b}" for b in ver.export_blockers]),
+    ])
+    return {"krl_program": f"{job.law}.src"}
+
+
+EXPORTER = Exporter(
+    name="krl", file_pattern="{law}.src", export=export_krl,
+    for_law=lambda job: job.native_program, early_check=early_check,
+    description="KUKA KRL program (SPLINE with SLIN/SPL key points, per-segment $VEL.CP) for "
+                "the native-controller comparison of thesis 3.7",
+)

@@ -22,8 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.export.job import Exporter, ExportJob, status_line
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
+from feedopt.units import MM, MM_PER_M
 
 COLUMNS: tuple[str, ...] = (
     "t_s",
@@ -153,21 +155,20 @@ def rsi_table_from_si(
     if n:
         abc[:, 0] = np.unwrap(abc[:, 0], period=360.0)
         abc[:, 2] = np.unwrap(abc[:, 2], period=360.0)
-    mm = 1e3
     return RsiTable(
         t_s=t,
-        x_mm=p[:, 0] * mm,
-        y_mm=p[:, 1] * mm,
-        z_mm=p[:, 2] * mm,
+        x_mm=p[:, 0] * MM_PER_M,
+        y_mm=p[:, 1] * MM_PER_M,
+        z_mm=p[:, 2] * MM_PER_M,
         a_deg=abc[:, 0],
         b_deg=abc[:, 1],
         c_deg=abc[:, 2],
         q_deg=np.rad2deg(np.asarray(q_rad, dtype=float)),
-        s_mm=np.asarray(s_m, dtype=float) * mm,
-        feed_mm_s=np.asarray(feed_m_s, dtype=float) * mm,
-        accel_mm_s2=np.asarray(accel, dtype=float) * mm,
-        jerk_mm_s3=np.asarray(jerk, dtype=float) * mm,
-        deflection_mm=np.asarray(deflection_m, dtype=float) * mm,
+        s_mm=np.asarray(s_m, dtype=float) * MM_PER_M,
+        feed_mm_s=np.asarray(feed_m_s, dtype=float) * MM_PER_M,
+        accel_mm_s2=np.asarray(accel, dtype=float) * MM_PER_M,
+        jerk_mm_s3=np.asarray(jerk, dtype=float) * MM_PER_M,
+        deflection_mm=np.asarray(deflection_m, dtype=float) * MM_PER_M,
     )
 
 
@@ -285,3 +286,35 @@ def read_rsi_csv(path: str | Path) -> RsiTable:
             f"than the previous row's {float(m[k - 1, 0])!r}; time must increase strictly"
         )
     return RsiTable.from_matrix(m)
+
+
+def export_rsi(job: ExportJob, out_dir: Path) -> dict:
+    """Write ``<law>.csv``: the law at the RSI cycle, pose = pinocchio FK of the q columns
+    (q interpolated along s between the IK samples)."""
+    from feedopt.robot.model import forward_kinematics
+
+    motion = job.samples.motion
+    q = job.q_of_s(motion.s)
+    pose = forward_kinematics(job.robot, q)
+    # How far FK of the interpolated joints is from the exact path point (for the record).
+    exact = job.path_in_base(motion.s)
+    interp_error = float(np.max(np.linalg.norm(pose[:, :3, 3] - exact, axis=1)))
+    deflection = np.interp(motion.s, job.problem.s, job.verification.deflection)
+    table = rsi_table_from_si(motion.t, pose[:, :3, 3], pose[:, :3, :3], q, motion.s,
+                              motion.sdot, motion.sddot, job.samples.jerk, deflection)
+    ver = job.verification
+    write_rsi_csv(out_dir / f"{job.law}.csv", table, comments=[
+        status_line(job),
+        f"cycle time {job.trajectory.duration:.4f} s, max predicted deflection "
+        f"{ver.max_deflection / MM:.4f} mm (limit {job.limit_mm} mm)",
+        "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
+        "deflection = predicted static deflection at the commanded feed",
+    ])
+    return {"fk_vs_path_error_mm": interp_error / MM, "rsi_csv": f"{job.law}.csv"}
+
+
+EXPORTER = Exporter(
+    name="rsi", file_pattern="{law}.csv", export=export_rsi,
+    description="RSI CSV: one row per controller cycle (t, TCP pose, q, s, feed, acceleration, "
+                "jerk, predicted deflection)",
+)

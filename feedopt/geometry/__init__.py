@@ -1,20 +1,31 @@
 """geometry stage of feedopt (see shared/design.md): waypoints -> Path (lines + corner blends)
-parameterised by arc length, thesis 3.3 and appendix B.1."""
+parameterised by arc length, thesis 3.3 and appendix B.1.
+
+Blend kinds live in the registry (:mod:`feedopt.geometry.registry`); importing this package
+registers the built-in ones (:mod:`feedopt.geometry.blend_kinds`).
+"""
 
 from feedopt.geometry.continuity import ContinuityReport, continuity_report
 from feedopt.geometry.path import Path, PathPoints, Segment, build_lipb_path
+from feedopt.geometry.registry import BlendKind, blend_names, register_blend, unregister_blend
+from feedopt.geometry.stage import path_from_section
 from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
 from feedopt.geometry.waypoints import read_waypoints_csv
 
 __all__ = [
+    "BlendKind",
     "ContinuityReport",
     "Path",
     "PathPoints",
     "Segment",
+    "blend_names",
     "build_lipb_path",
     "continuity_report",
+    "path_from_section",
     "read_waypoints_csv",
+    "register_blend",
     "square_wave",
     "straight_line",
     "triangle_wave",
+    "unregister_blend",
 ]

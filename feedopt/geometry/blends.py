@@ -14,9 +14,7 @@ from math import comb
 
 import numpy as np
 
-from feedopt.errors import InputError
-
-BLEND_KINDS = ("circle", "bezier4", "bezier5", "varying_radius", "none")
+from feedopt.geometry.registry import get_blend
 
 
 @dataclass(frozen=True)
@@ -69,28 +67,49 @@ def corner_geometry(waypoints: np.ndarray) -> Corners:
 
 
 def tangent_distance(kind: str, turn: np.ndarray, size: float) -> np.ndarray:
-    """Distance from the corner to where the blend meets each line [m].
+    """Distance from the corner to where a blend of ``kind`` meets each line [m].
 
-    circle / varying_radius: ``l_s = r / |tan(alpha/2)| = r tan(gamma/2)`` (appendix B.1);
-    bezier4 / bezier5: the tolerance delta itself (the sphere of radius delta about q_k,
-    Eq. 3.1 and 3.5). ``none``: 0.
+    Dispatches to the kind's ``tangent_distance`` in the registry
+    (:func:`radius_tangent_distance`, :func:`tolerance_tangent_distance` for the built-in
+    kinds); ``"none"``: 0.
     """
-    turn = np.asarray(turn, dtype=float)
-    if kind in ("circle", "varying_radius"):
-        return size * np.tan(0.5 * turn)
-    if kind in ("bezier4", "bezier5"):
-        return np.full_like(turn, float(size))
-    if kind == "none":
-        return np.zeros_like(turn)
-    raise InputError(f"unknown blend {kind!r}; choose one of {', '.join(BLEND_KINDS)}")
+    blend = get_blend(kind)
+    if blend is None:
+        return np.zeros_like(np.asarray(turn, dtype=float))
+    return blend.tangent_distance(turn, size)
 
 
 def largest_fitting_size(kind: str, turn: np.ndarray, room: np.ndarray) -> np.ndarray:
-    """Largest radius (circle, varying_radius) or tolerance (bezier) whose tangent distance
-    is at most ``room`` [m] (inverse of :func:`tangent_distance`)."""
-    if kind in ("circle", "varying_radius"):
-        with np.errstate(divide="ignore"):
-            return room / np.tan(0.5 * np.asarray(turn, dtype=float))
+    """Largest size of a ``kind`` blend whose tangent distance is at most ``room`` [m]
+    (inverse of :func:`tangent_distance`; ``"none"``: any size, inf)."""
+    blend = get_blend(kind)
+    if blend is None:
+        return np.full_like(np.asarray(room, dtype=float), np.inf)
+    return blend.largest_size(turn, room)
+
+
+def radius_tangent_distance(turn: np.ndarray, r: float) -> np.ndarray:
+    """``l_s = r / |tan(alpha/2)| = r tan(gamma/2)`` of a blend of radius ``r`` tangent to
+    both lines (appendix B.1; circle and varying_radius)."""
+    turn = np.asarray(turn, dtype=float)
+    return r * np.tan(0.5 * turn)
+
+
+def radius_fitting(turn: np.ndarray, room: np.ndarray) -> np.ndarray:
+    """Largest radius whose tangent distance r tan(gamma/2) is at most ``room`` [m]."""
+    with np.errstate(divide="ignore"):
+        return room / np.tan(0.5 * np.asarray(turn, dtype=float))
+
+
+def tolerance_tangent_distance(turn: np.ndarray, delta: float) -> np.ndarray:
+    """The tolerance delta itself: the blend starts where the sphere of radius delta about
+    q_k meets the lines (Eq. 3.1 and 3.5; bezier4, bezier5)."""
+    turn = np.asarray(turn, dtype=float)
+    return np.full_like(turn, float(delta))
+
+
+def tolerance_fitting(turn: np.ndarray, room: np.ndarray) -> np.ndarray:
+    """Largest tolerance that fits: ``room`` itself."""
     return np.asarray(room, dtype=float)
 
 
@@ -118,7 +137,7 @@ def circle_blend(c: Corners, r: float) -> CircleBlend:
     ``P_t1 + r n`` with ``n`` the inward normal from the corner's own plane (the thesis took
     the perpendicular of a concave-down 2D corner; this works for any orientation).
     """
-    ls = tangent_distance("circle", c.turn, r)
+    ls = radius_tangent_distance(c.turn, r)
     start = c.point - ls[:, None] * c.d_in
     end = c.point + ls[:, None] * c.d_out
     centre = start + r * c.normal

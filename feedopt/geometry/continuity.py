@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.geometry.path import Path
+from feedopt.units import MM, MM_PER_M
 
 
 @dataclass(frozen=True)
@@ -43,6 +44,7 @@ class ContinuityReport:
         head = (f"{'#':>5} {'s_mm':>12} {'before':>14} {'after':>14} {'corner':>6} "
                 f"{'G0_mm':>10} {'G1':>10} {'G2_1_mm':>10}")
         rows = [head]
+        # g0 and s are lengths (m -> mm: * MM_PER_M); g2 is a curvature (1/m -> 1/mm: * MM)
         idx = list(range(len(self)))
         cut = max_rows is not None and len(idx) > max_rows
         if cut:
@@ -54,12 +56,12 @@ class ContinuityReport:
                 continue
             corner = str(self.corner_index[i]) if self.corner_index[i] >= 0 else "-"
             rows.append(
-                f"{i:>5} {self.s[i] * 1e3:>12.4f} {self.kind_before[i]:>14} "
-                f"{self.kind_after[i]:>14} {corner:>6} {self.g0[i] * 1e3:>10.3g} "
-                f"{self.g1[i]:>10.3g} {self.g2[i] * 1e-3:>10.3g}")
+                f"{i:>5} {self.s[i] * MM_PER_M:>12.4f} {self.kind_before[i]:>14} "
+                f"{self.kind_after[i]:>14} {corner:>6} {self.g0[i] * MM_PER_M:>10.3g} "
+                f"{self.g1[i]:>10.3g} {self.g2[i] * MM:>10.3g}")
         g0, g1, g2 = self.max()
-        rows.append(f"max over {len(self)} junctions: G0 {g0 * 1e3:.3g} mm, G1 {g1:.3g}, "
-                    f"G2 {g2 * 1e-3:.3g} 1/mm")
+        rows.append(f"max over {len(self)} junctions: G0 {g0 * MM_PER_M:.3g} mm, G1 {g1:.3g}, "
+                    f"G2 {g2 * MM:.3g} 1/mm")
         return "\n".join(rows)
 
 

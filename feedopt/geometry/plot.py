@@ -9,40 +9,62 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from feedopt.geometry.path import Path
+from feedopt.geometry.registry import LINE, blend_kinds
+from feedopt.units import MM, MM_PER_M
 
-_COLOURS = {"line": "0.55", "circle": "tab:red", "bezier4": "tab:orange",
-            "bezier5": "tab:green", "varying_radius": "tab:blue"}
+LINE_COLOUR = "0.55"
+UNREGISTERED_COLOUR = "k"  # a kind no longer in the registry is still drawn, and labelled so
+
+
+def kind_colours(kinds: tuple[str, ...] | list[str]) -> dict[str, tuple[str, str]]:
+    """Colour and legend label of every kind in ``kinds``: "line" first, then the blend kinds
+    in registry order with their registered colour, then any kind not in the registry."""
+    present = set(kinds)
+    out = {LINE: (LINE_COLOUR, LINE)} if LINE in present else {}
+    for blend in blend_kinds():
+        if blend.name in present:
+            out[blend.name] = (blend.colour, blend.name)
+    for kind in dict.fromkeys(kinds):
+        if kind not in out:
+            out[kind] = (UNREGISTERED_COLOUR, f"{kind} (unregistered)")
+    return out
 
 
 def plot_path(path: Path, out: str | FilePath, spacing: float = 1e-4,
               waypoints: np.ndarray | None = None, title: str | None = None) -> None:
-    """Write a PNG: left, the path in the XY plane [mm] coloured by segment kind (3D paths are
-    shown projected); right, curvature components and magnitude [1/mm] against s [mm]."""
+    """Write a PNG of :func:`path_figure` to ``out``."""
+    path_figure(path, spacing, waypoints, title).savefig(out, dpi=120)
+
+
+def path_figure(path: Path, spacing: float = 1e-4, waypoints: np.ndarray | None = None,
+                title: str | None = None) -> Figure:
+    """Left, the path in the XY plane [mm] coloured by segment kind, every kind in its
+    registered colour (3D paths are shown projected); right, curvature components and
+    magnitude [1/mm] against s [mm]."""
     pts = path.sample(spacing)
     fig = Figure(figsize=(12, 4.8), layout="constrained")
     ax, axk = fig.subplots(1, 2, width_ratios=[1.3, 1])
-    xy = pts.position[:, :2] * 1e3
+    xy = pts.position[:, :2] * MM_PER_M
     kinds = np.array(path.segment_kind)[pts.segment]
-    seen = set()
-    for kind, colour in _COLOURS.items():
+    for kind, (colour, label) in kind_colours(path.segment_kind).items():
         mask = kinds == kind
-        if not mask.any():
-            continue
+        unsampled = not mask.any()
+        if unsampled:  # segments shorter than the spacing: mark where they are
+            mask = _nearest(pts.s, path, kind)
         # break the polyline between separate pieces of the same kind
         y = np.where(mask[:, None], xy, np.nan)
-        ax.plot(y[:, 0], y[:, 1], color=colour, lw=2 if kind != "line" else 1.2,
-                label=kind if kind not in seen else None)
-        seen.add(kind)
+        ax.plot(y[:, 0], y[:, 1], color=colour, lw=2 if kind != LINE else 1.2, label=label,
+                marker="o" if unsampled else None)
     if waypoints is not None:
-        wp = np.asarray(waypoints) * 1e3
+        wp = np.asarray(waypoints) * MM_PER_M
         ax.plot(wp[:, 0], wp[:, 1], "k:", lw=0.8, marker="o", ms=3, label="waypoints")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     ax.legend(loc="best", fontsize=8)
     ax.set_title(title or "path (XY view)")
-    s = pts.s * 1e3
-    k = pts.curvature * 1e-3
+    s = pts.s * MM_PER_M
+    k = pts.curvature * MM  # 1/m -> 1/mm: times metres per millimetre
     for i, name in enumerate("xyz"):
         if np.any(k[:, i] != 0):
             axk.plot(s, k[:, i], lw=1, label=f"k{name}")
@@ -52,4 +74,12 @@ def plot_path(path: Path, out: str | FilePath, spacing: float = 1e-4,
     axk.set_title("curvature vector d2p/ds2")
     axk.legend(loc="best", fontsize=8)
     axk.grid(alpha=0.3)
-    fig.savefig(out, dpi=120)
+    return fig
+
+
+def _nearest(s: np.ndarray, path: Path, kind: str) -> np.ndarray:
+    """Samples nearest to the start of every segment of ``kind`` (n,) bool."""
+    out = np.zeros(s.size, dtype=bool)
+    starts = path.segment_start[[i for i, k in enumerate(path.segment_kind) if k == kind]]
+    out[np.clip(np.searchsorted(s, starts), 0, s.size - 1)] = True
+    return out

@@ -10,6 +10,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.textio import read_user_text
+from feedopt.units import MM
 
 COLUMNS = ("x_mm", "y_mm", "z_mm")
 
@@ -51,4 +52,4 @@ def read_waypoints_csv(path: str | FilePath) -> np.ndarray:
             out[r, k] = v
     if len(out) < 2:
         raise InputError(f"{p}: a path needs at least two waypoints, found {len(out)}")
-    return out * 1e-3
+    return out * MM

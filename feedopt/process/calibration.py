@@ -22,6 +22,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CoefficientTable, CuttingCoefficients
 from feedopt.process.forces import feed_per_tooth
+from feedopt.units import MM, MM_PER_M
 
 CSV_COLUMNS = ("spindle_rpm", "feed_mm_s", "fx_n", "fy_n", "fz_n")
 
@@ -102,7 +103,7 @@ def read_slot_forces(path: str | Path) -> list[SlotForceRow]:
         rows.append(
             SlotForceRow(
                 vals["spindle_rpm"],
-                vals["feed_mm_s"] * 1e-3,
+                vals["feed_mm_s"] * MM,
                 vals["fx_n"],
                 vals["fy_n"],
                 vals["fz_n"],
@@ -131,7 +132,7 @@ def calibrate(rows: list[SlotForceRow], teeth: int, axial_depth: float) -> list[
     if isinstance(teeth, bool) or int(teeth) != teeth or teeth < 1:
         raise InputError(f"teeth must be a whole number >= 1, got {teeth!r}")
     if not (math.isfinite(axial_depth) and axial_depth > 0):
-        raise InputError(f"axial depth must be > 0, got {axial_depth * 1e3!r} mm")
+        raise InputError(f"axial depth must be > 0, got {axial_depth * MM_PER_M!r} mm")
     if not rows:
         raise InputError("calibration needs at least one speed with two or more cuts")
     na = teeth * axial_depth

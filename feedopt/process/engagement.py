@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.units import MM
+from feedopt.units import MM, MM_PER_M
 
 MILLING_MODES = ("up", "down")
 
@@ -132,8 +132,8 @@ def peripheral_engagement(
     if np.any(bad):
         i = int(np.argmax(bad))
         raise InputError(
-            f"radial_depth at sample {i} is {ae[i] * 1e3:g} mm: must be in [0, D] = "
-            f"[0, {diameter * 1e3:g}] mm"
+            f"radial_depth at sample {i} is {ae[i] * MM_PER_M:g} mm: must be in [0, D] = "
+            f"[0, {diameter * MM_PER_M:g}] mm"
         )
     sweep = np.arccos(np.clip(1.0 - 2.0 * ae / diameter, -1.0, 1.0))
     depth = np.broadcast_to(np.asarray(axial_depth, dtype=float), ae.shape).copy()
@@ -168,7 +168,7 @@ def radial_depth_profile(s: np.ndarray, table_s: np.ndarray, table_depth: np.nda
     if np.any(out):
         i = int(np.argmax(out.reshape(-1)))
         raise InputError(
-            f"radial depth profile: s = {s.reshape(-1)[i] * 1e3:g} mm (sample {i}) is outside "
-            f"the table's {ts[0] * 1e3:g}..{ts[-1] * 1e3:g} mm"
+            f"radial depth profile: s = {s.reshape(-1)[i] * MM_PER_M:g} mm (sample {i}) is outside "
+            f"the table's {ts[0] * MM_PER_M:g}..{ts[-1] * MM_PER_M:g} mm"
         )
     return np.interp(s, ts, td)

@@ -83,8 +83,8 @@ def load_tool(path: str | Path) -> Tool:
         raise InputError(f"{where}.flute_length_mm: must be > 0 mm, got {flute_mm:g}")
     return Tool(
         name=str(data.get("name", Path(path).stem)),
-        diameter=diameter_mm * 1e-3,
+        diameter=diameter_mm * MM,
         teeth=teeth,
         helix=math.radians(helix_deg),
-        flute_length=flute_mm * 1e-3,
+        flute_length=flute_mm * MM,
     )

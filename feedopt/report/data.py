@@ -16,6 +16,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.textio import read_user_text
+from feedopt.units import MM_PER_M
 
 # Per-law keys of summary.json and their kinds ("num": number or null, "bool": bool or null).
 LAW_KEYS: dict[str, str] = {
@@ -101,16 +102,15 @@ def law_series_from_si(
     notes: Sequence[str] = (),
 ) -> LawSeries:
     """:class:`LawSeries` from SI arrays (m, m/s, m/s^2, m/s^3, rad/s); converts to mm, deg."""
-    mm = 1e3
     return LawSeries(
         law=law,
-        s_mm=np.asarray(s_m, dtype=float) * mm,
-        feed_mm_s=np.asarray(feed_m_s, dtype=float) * mm,
-        deflection_mm=np.asarray(deflection_m, dtype=float) * mm,
+        s_mm=np.asarray(s_m, dtype=float) * MM_PER_M,
+        feed_mm_s=np.asarray(feed_m_s, dtype=float) * MM_PER_M,
+        deflection_mm=np.asarray(deflection_m, dtype=float) * MM_PER_M,
         t_s=np.asarray(t, dtype=float),
-        feed_t_mm_s=np.asarray(feed_t_m_s, dtype=float) * mm,
-        accel_mm_s2=np.asarray(accel, dtype=float) * mm,
-        jerk_mm_s3=np.asarray(jerk, dtype=float) * mm,
+        feed_t_mm_s=np.asarray(feed_t_m_s, dtype=float) * MM_PER_M,
+        accel_mm_s2=np.asarray(accel, dtype=float) * MM_PER_M,
+        jerk_mm_s3=np.asarray(jerk, dtype=float) * MM_PER_M,
         joint_velocity_deg_s=np.rad2deg(np.asarray(joint_velocity_rad_s, dtype=float)),
         verified=bool(verified),
         notes=tuple(notes),

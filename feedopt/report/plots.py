@@ -17,14 +17,8 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
 from feedopt.report.data import LawSeries, ReportData
+from feedopt.schedule.laws import LAWS
 
-_LAW_COLORS = {
-    "constant": "0.35",
-    "thesis": "tab:blue",
-    "topp": "tab:orange",
-    "convex": "tab:green",
-    "jerk": "tab:purple",
-}
 _FALLBACK = ["tab:red", "tab:brown", "tab:pink", "tab:olive", "tab:cyan"]
 _LIMIT_STYLE = {"color": "tab:red", "linestyle": "--", "linewidth": 1.2}
 _DPI = 100
@@ -34,8 +28,15 @@ MAX_PATH_SEGMENTS = 1500
 
 
 def law_color(law: str, index: int = 0) -> str:
-    """Stable colour of a timing law across all figures."""
-    return _LAW_COLORS.get(law, _FALLBACK[index % len(_FALLBACK)])
+    """Stable colour of a timing law across all figures (its registry colour)."""
+    spec = LAWS.get(law)
+    return spec.colour if spec is not None else _FALLBACK[index % len(_FALLBACK)]
+
+
+def _baseline(data: ReportData) -> LawSeries | None:
+    """The baseline law of the run (registry: ignores the limit), drawn under every law."""
+    return next((ls for ls in data.laws if LAWS.get(ls.law) is not None
+                 and LAWS[ls.law].baseline), None)
 
 
 def _label(ls: LawSeries) -> str:
@@ -140,14 +141,14 @@ def plot_path_feed(data: ReportData) -> Figure:
 
 def plot_deflection(data: ReportData) -> Figure:
     """Predicted deflection vs s: constant feed against each law, limit line (Fig. 3.18/4.4)."""
-    const = next((ls for ls in data.laws if ls.law == "constant"), None)
-    others = [ls for ls in data.laws if ls.law != "constant"] or [const]
+    const = _baseline(data)
+    others = [ls for ls in data.laws if ls is not const] or [const]
     n = len(others)
     fig = _new_figure(8.0, 2.4 * n + 0.6)
     axes = np.atleast_1d(fig.subplots(n, 1, sharex=True, squeeze=False)).ravel()
     for k, (ax, ls) in enumerate(zip(axes, others, strict=True)):
         if const is not None and ls is not const:
-            _plot(ax, const.s_mm, const.deflection_mm, color=law_color("constant"), lw=1.0,
+            _plot(ax, const.s_mm, const.deflection_mm, color=law_color(const.law), lw=1.0,
                     label=_label(const))
         _plot(ax, ls.s_mm, ls.deflection_mm, color=law_color(ls.law, k), lw=1.4, label=_label(ls))
         ax.axhline(data.deflection_limit_mm, label=f"limit {data.deflection_limit_mm:g} mm",

@@ -9,11 +9,16 @@ rotation as close as possible to the previous sample.
 After the sweep the joint path is checked; the earliest offending sample is reported with its
 index and pose: unreachable (no convergence), joint-limit violation, joint jump (branch flip)
 and near-singular pose (condition number of the scaled TCP Jacobian).
+
+:func:`solve_path_ik` runs the phases in order: :func:`_validate_task` (targets per sample),
+:func:`_sweep` (per sample: :func:`_seed`, then :func:`_damped_newton_step` to a coarse
+tolerance), :func:`_refine` (batched Newton to the final tolerance), :func:`_check_converged`
+and :func:`_check_path` (limits, jumps, singularities). Its tunables are :class:`IKOptions`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 import pinocchio as pin
@@ -21,6 +26,7 @@ from scipy.linalg import lapack
 
 from feedopt.errors import InputError
 from feedopt.robot.model import RobotModel, jacobian_condition_number
+from feedopt.units import MM
 
 
 @dataclass(frozen=True)
@@ -44,6 +50,113 @@ class PathIK:
     condition_number: np.ndarray
     position_error: np.ndarray
     axis_error: np.ndarray
+
+
+@dataclass(frozen=True)
+class IKOptions:
+    """Tunables of :func:`solve_path_ik` (the defaults are what every run uses).
+
+    Attributes
+    ----------
+    tol_position, tol_angle : float
+        Newton stops when the position error [m] and orientation error [rad] are below these.
+    coarse_position, coarse_angle : float
+        The sequential sweep moves on to the next sample once the errors [m], [rad] are below
+        these (Newton's quadratic region); the batched refinement then reaches the tolerances.
+    max_iterations, max_iterations_first : int
+        Newton steps per sample (first sample: from ``q_start``, may be far); the batched
+        refinement takes at most ``max_iterations`` steps too.
+    max_newton_step : float
+        Newton steps are scaled down to at most this joint change [rad].
+    damping : float
+        Damped-least-squares regularisation lambda^2 (tiny: plain Newton when non-singular).
+    fail_position, fail_angle : float
+        Residuals [m], [rad] above which a sample counts as unreachable.
+    max_joint_step : float
+        Largest allowed joint change between consecutive samples [rad]; larger = branch flip.
+    max_condition : float
+        Largest allowed Jacobian condition number (angular rows scaled by
+        ``condition_length`` [m]); above it the pose counts as near-singular.
+    condition_length : float
+        Length scale [m] of the angular Jacobian rows in the condition number.
+    """
+
+    tol_position: float = 1e-10
+    tol_angle: float = 1e-10
+    coarse_position: float = 1e-4
+    coarse_angle: float = 1e-3
+    max_iterations: int = 20
+    max_iterations_first: int = 300
+    max_newton_step: float = 0.2
+    damping: float = 1e-12
+    fail_position: float = 1e-7
+    fail_angle: float = 1e-7
+    max_joint_step: float = float(np.deg2rad(5.0))
+    max_condition: float = 100.0
+    condition_length: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("max_iterations", "max_iterations_first"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+                raise ValueError(f"IKOptions.{name} must be an integer >= 1, got {value!r}")
+        for f in fields(self):
+            if f.name in ("max_iterations", "max_iterations_first"):
+                continue
+            value = getattr(self, f.name)
+            low_ok = value >= 0 if f.name == "damping" else value > 0
+            if not (np.isfinite(value) and low_ok):
+                raise ValueError(f"IKOptions.{f.name} must be a finite number > 0 "
+                                 f"(damping: >= 0), got {value!r}")
+
+
+@dataclass(frozen=True)
+class _Task:
+    """A validated path task: targets per sample, in the base frame."""
+
+    positions: np.ndarray  # (n, 3) [m]
+    tool_axes: np.ndarray  # (n, 3) unit vectors
+    rotations: np.ndarray | None  # (n, 3, 3) 6-DoF targets, or None (5-DoF)
+    normals: np.ndarray | None  # (n, 3, 2) 5-DoF: two unit normals of each tool axis
+    q_start: np.ndarray  # (dof,) [rad]
+
+    @property
+    def six_dof(self) -> bool:
+        return self.rotations is not None
+
+    @property
+    def n(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def size(self) -> int:
+        """Task dimension: 6 (full pose) or 5 (position + tool axis)."""
+        return 6 if self.six_dof else 5
+
+
+class _TcpKinematics:
+    """Pinocchio TCP placement and Jacobian of one robot, with its own work data."""
+
+    def __init__(self, robot: RobotModel) -> None:
+        self.model, self.data, self.fid = robot.model, robot.model.createData(), robot.tcp_frame_id
+
+    def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """TCP rotation (3, 3), position (3,) and Jacobian (6, dof) (LOCAL_WORLD_ALIGNED)."""
+        pin.computeJointJacobians(self.model, self.data, q)
+        placement = pin.updateFramePlacement(self.model, self.data, self.fid)
+        jac = pin.getFrameJacobian(self.model, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
+        return placement.rotation, placement.translation, jac
+
+    def evaluate_path(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rotations (n, 3, 3), positions (n, 3), Jacobians (n, 6, dof) of configurations q."""
+        n, dof = q.shape
+        rot, pos, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 6, dof))
+        for k in range(n):
+            rot[k], pos[k], jac[k] = self.evaluate(q[k])
+        return rot, pos, jac
+
+
+# --------------------------------------------------------------------------- geometry helpers
 
 
 def _unit_rows(v: np.ndarray, name: str) -> np.ndarray:
@@ -105,12 +218,230 @@ def _log3_batch(r: np.ndarray) -> np.ndarray:
     return out
 
 
-def _describe(k: int, position: np.ndarray, axis: np.ndarray) -> str:
-    p = np.asarray(position) * 1e3
-    return (
-        f"sample {k} (TCP x={p[0]:.3f}, y={p[1]:.3f}, z={p[2]:.3f} mm, tool axis "
-        f"[{axis[0]:.4f}, {axis[1]:.4f}, {axis[2]:.4f}])"
-    )
+# --------------------------------------------------------------------------- task and seed
+
+
+def _validate_task(
+    robot: RobotModel,
+    positions: np.ndarray,
+    tool_axes: np.ndarray,
+    q_start: np.ndarray,
+    x_axes: np.ndarray | None,
+) -> _Task:
+    """Check shapes, finiteness and the start configuration; build the per-sample targets."""
+    dof = robot.dof
+    p_t = np.asarray(positions, dtype=float)
+    if p_t.ndim != 2 or p_t.shape[1] != 3 or p_t.shape[0] == 0:
+        raise InputError(f"positions must have shape (n, 3) with n >= 1, got {p_t.shape}")
+    n = p_t.shape[0]
+    if not np.all(np.isfinite(p_t)):
+        k = int(np.flatnonzero(~np.isfinite(p_t).all(axis=1))[0])
+        raise InputError(f"positions: sample {k} is not finite ({p_t[k]})")
+    z_t = np.asarray(tool_axes, dtype=float)
+    if z_t.shape != (n, 3):
+        raise InputError(f"tool_axes must have shape ({n}, 3) like positions, got {z_t.shape}")
+    z_t = _unit_rows(z_t, "tool_axes")
+    rotations = normals = None
+    if x_axes is not None:
+        x_in = np.asarray(x_axes, dtype=float)
+        if x_in.shape != (n, 3):
+            raise InputError(f"x_axes must have shape ({n}, 3) like positions, got {x_in.shape}")
+        rotations = _target_rotations(z_t, x_in)
+    else:
+        normals = _perpendicular_bases(z_t)
+    q0 = np.asarray(q_start, dtype=float)
+    if q0.shape != (dof,) or not np.all(np.isfinite(q0)):
+        raise InputError(f"q_start must have {dof} finite values, got {q_start!r}")
+    out_of_range = np.flatnonzero((q0 < robot.q_lower) | (q0 > robot.q_upper))
+    if out_of_range.size:
+        j = out_of_range[0]
+        raise InputError(
+            f"q_start: joint {j + 1} = {np.rad2deg(q0[j]):.3f} deg is outside its limits "
+            f"[{np.rad2deg(robot.q_lower[j]):.1f}, {np.rad2deg(robot.q_upper[j]):.1f}] deg"
+        )
+    return _Task(positions=p_t, tool_axes=z_t, rotations=rotations, normals=normals, q_start=q0)
+
+
+def _seed(q_solved: np.ndarray, k: int, q_start: np.ndarray) -> np.ndarray:
+    """Start of Newton at sample k: ``q_start``, then the previous solution plus the previous
+    step (first-order predictor along the path)."""
+    if k == 0:
+        return q_start.copy()
+    if k == 1:
+        return q_solved[0].copy()
+    return q_solved[k - 1] + (q_solved[k - 1] - q_solved[k - 2])
+
+
+# --------------------------------------------------------------------------- one sample
+
+
+def _axis_error(rot: np.ndarray, z_target: np.ndarray, normals: np.ndarray):
+    """Rotation vector (3,) turning the TCP z axis (column 2 of ``rot``) onto ``z_target`` by
+    the shortest rotation, and its angle [rad]; about a normal when the axis is reversed."""
+    z0, z1, z2 = rot[0, 2], rot[1, 2], rot[2, 2]
+    t0, t1, t2 = z_target
+    ew = np.array([z1 * t2 - z2 * t1, z2 * t0 - z0 * t2, z0 * t1 - z1 * t0])
+    sn = float(np.sqrt(ew @ ew))
+    ea = float(np.arctan2(sn, z0 * t0 + z1 * t1 + z2 * t2))
+    if sn > 1e-300:
+        ew *= ea / sn
+    if sn < 1e-9 and ea > 1.0:  # axis exactly reversed: rotate about any normal
+        ew = normals[:, 0] * ea
+    return ew, ea
+
+
+def _rotation_error(rot: np.ndarray, r_target: np.ndarray):
+    """Rotation vector (3,) from the TCP rotation ``rot`` to ``r_target`` (base axes), angle."""
+    ew = pin.log3(r_target @ rot.T)
+    return ew, float(np.sqrt(ew @ ew))
+
+
+def _task_system(
+    jac: np.ndarray,
+    ep: np.ndarray,
+    ew: np.ndarray,
+    normals: np.ndarray | None,
+    jt: np.ndarray,
+    e: np.ndarray,
+) -> None:
+    """Fill the task Jacobian ``jt`` (m, dof) and error ``e`` (m,): 3 position rows, then 3
+    rotation rows (6-DoF) or the 2 rotation components normal to the tool axis (5-DoF)."""
+    jt[:3] = jac[:3]
+    e[:3] = ep
+    if normals is None:
+        jt[3:] = jac[3:]
+        e[3:] = ew
+    else:
+        jt[3:] = normals.T @ jac[3:]
+        e[3:] = normals.T @ ew
+
+
+def _damped_newton_step(
+    jt: np.ndarray, e: np.ndarray, damping_eye: np.ndarray, max_step: float
+) -> np.ndarray:
+    """Minimum-norm damped least-squares step ``J^T (J J^T + lambda^2 I)^-1 e`` (dof,).
+
+    Falls back to least squares when the damped normal matrix is not positive definite;
+    scaled down so that no joint moves by more than ``max_step`` [rad].
+    """
+    _, x, info = lapack.dposv(jt @ jt.T + damping_eye, e)
+    dq = jt.T @ x if info == 0 else np.linalg.lstsq(jt, e, rcond=None)[0]
+    big = np.abs(dq).max()
+    if big > max_step:
+        dq *= max_step / big
+    return dq
+
+
+def _solve_sample(
+    kin: _TcpKinematics,
+    task: _Task,
+    k: int,
+    q: np.ndarray,
+    iterations: int,
+    options: IKOptions,
+    work: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, bool, float, float]:
+    """Newton from ``q`` on sample k until the coarse tolerance (or the final one).
+
+    Returns the configuration, whether it converged, and the last position [m] and
+    orientation [rad] errors. ``work`` is (task Jacobian, task error, damping matrix).
+    """
+    jt, e, damping_eye = work
+    p_k = task.positions[k]
+    normals = None if task.six_dof else task.normals[k]
+    ep_norm = ea = np.inf
+    for _ in range(iterations):
+        rot, trans, jac = kin.evaluate(q)
+        ep = p_k - trans
+        if task.six_dof:
+            ew, ea = _rotation_error(rot, task.rotations[k])
+        else:
+            ew, ea = _axis_error(rot, task.tool_axes[k], normals)
+        ep_norm = float(np.sqrt(ep @ ep))
+        if ep_norm <= options.tol_position and ea <= options.tol_angle:
+            return q, True, ep_norm, ea
+        _task_system(jac, ep, ew, normals, jt, e)
+        q = q + _damped_newton_step(jt, e, damping_eye, options.max_newton_step)
+        if ep_norm <= options.coarse_position and ea <= options.coarse_angle:
+            return q, True, ep_norm, ea
+    return q, False, ep_norm, ea
+
+
+def _sweep(kin: _TcpKinematics, task: _Task, options: IKOptions) -> np.ndarray:
+    """Sequential sweep (n, dof): seed from the previous samples, Newton until the coarse
+    tolerance (usually one step), so that every sample tracks the previous one's branch."""
+    dof = task.q_start.shape[0]
+    q_out = np.empty((task.n, dof))
+    work = (np.empty((task.size, dof)), np.empty(task.size), np.eye(task.size) * options.damping)
+    for k in range(task.n):
+        iterations = options.max_iterations_first if k == 0 else options.max_iterations
+        q, converged, ep_norm, ea = _solve_sample(
+            kin, task, k, _seed(q_out, k, task.q_start), iterations, options, work
+        )
+        q_out[k] = q
+        if not converged or not np.all(np.isfinite(q)):
+            raise _unreachable(task, k, ep_norm, ea)
+    return q_out
+
+
+# --------------------------------------------------------------------------- whole path
+
+
+def _path_errors(task: _Task, rot: np.ndarray, pos: np.ndarray):
+    """Position errors (n, 3) [m] and rotation vectors (n, 3) [rad] of every sample."""
+    ep = task.positions - pos
+    if task.six_dof:
+        ew = _log3_batch(task.rotations @ np.swapaxes(rot, 1, 2))
+    else:
+        ew = _axis_error_batch(rot[:, :, 2], task.tool_axes, task.normals)
+    return ep, ew
+
+
+def _batch_newton_steps(
+    task: _Task,
+    jac: np.ndarray,
+    ep: np.ndarray,
+    ew: np.ndarray,
+    todo: np.ndarray,
+    damping_eye: np.ndarray,
+    max_step: float,
+) -> np.ndarray:
+    """Damped Newton steps (m, dof) of the samples ``todo`` (as :func:`_damped_newton_step`)."""
+    jb = jac[todo]
+    if task.six_dof:
+        jt_b, e_b = jb, np.concatenate([ep[todo], ew[todo]], axis=1)
+    else:
+        bt = np.swapaxes(task.normals[todo], 1, 2)  # (m, 2, 3)
+        jt_b = np.concatenate([jb[:, :3], bt @ jb[:, 3:]], axis=1)
+        e_b = np.concatenate([ep[todo], np.einsum("mij,mj->mi", bt, ew[todo])], axis=1)
+    a = jt_b @ np.swapaxes(jt_b, 1, 2) + damping_eye
+    dq = np.einsum("mji,mj->mi", jt_b, np.linalg.solve(a, e_b[..., None])[..., 0])
+    big = np.abs(dq).max(axis=1, keepdims=True)
+    dq *= np.minimum(1.0, max_step / np.maximum(big, 1e-300))
+    return dq
+
+
+def _refine(
+    kin: _TcpKinematics, task: _Task, q: np.ndarray, options: IKOptions
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched refinement of ``q`` (n, dof) in place: pinocchio per sample, errors and Newton
+    steps vectorised, until every sample is within the tolerances.
+
+    Returns the position [m] and orientation [rad] errors (n,) and TCP Jacobians
+    (n, 6, dof) of the last evaluation.
+    """
+    damping_eye = np.eye(task.size) * options.damping
+    for _ in range(options.max_iterations + 1):
+        rot, pos, jac = kin.evaluate_path(q)
+        ep, ew = _path_errors(task, rot, pos)
+        pos_err = np.linalg.norm(ep, axis=1)
+        ang_err = np.linalg.norm(ew, axis=1)
+        todo = np.flatnonzero((pos_err > options.tol_position) | (ang_err > options.tol_angle))
+        if not todo.size:
+            break
+        q[todo] += _batch_newton_steps(task, jac, ep, ew, todo, damping_eye,
+                                       options.max_newton_step)
+    return pos_err, ang_err, jac
 
 
 def solve_path_ik(
@@ -119,20 +450,13 @@ def solve_path_ik(
     tool_axes: np.ndarray,
     q_start: np.ndarray,
     x_axes: np.ndarray | None = None,
-    *,
-    tol_position: float = 1e-10,
-    tol_angle: float = 1e-10,
-    max_iterations: int = 20,
-    max_iterations_first: int = 300,
-    max_joint_step: float = np.deg2rad(5.0),
-    max_condition: float = 100.0,
-    condition_length: float = 1.0,
-    max_newton_step: float = 0.2,
-    damping: float = 1e-12,
-    fail_position: float = 1e-7,
-    fail_angle: float = 1e-7,
+    options: IKOptions | None = None,
 ) -> PathIK:
     """Joint configurations placing the TCP on ``positions`` with its +z on ``tool_axes``.
+
+    Phases: validate the task; sequential sweep (seed from the previous samples, damped
+    Newton to a coarse tolerance); batched refinement to the final tolerance; convergence
+    check; path checks (joint limits, joint jumps = branch flips, near-singular poses).
 
     Parameters
     ----------
@@ -146,21 +470,8 @@ def solve_path_ik(
     x_axes : (n, 3) array or None
         TCP +x directions for a 6-DoF task (made orthogonal to the tool axis); ``None`` for the
         5-DoF milling task where the rotation about the tool axis is free.
-    tol_position, tol_angle : float
-        Newton stops when the position error [m] and orientation error [rad] are below these.
-    max_iterations, max_iterations_first : int
-        Newton steps per sample (first sample: from ``q_start``, may be far).
-    max_joint_step : float
-        Largest allowed joint change between consecutive samples [rad]; larger = branch flip.
-    max_condition : float
-        Largest allowed Jacobian condition number (angular rows scaled by
-        ``condition_length`` [m]); above it the pose counts as near-singular.
-    max_newton_step : float
-        Newton steps are scaled down to at most this joint change [rad].
-    damping : float
-        Damped-least-squares regularisation lambda^2 (tiny: plain Newton when non-singular).
-    fail_position, fail_angle : float
-        Residuals [m], [rad] above which a sample counts as unreachable.
+    options : IKOptions or None
+        Tolerances, iteration counts and path-check limits; ``None``: ``IKOptions()``.
 
     Raises
     ------
@@ -168,187 +479,79 @@ def solve_path_ik(
         Naming the first sample (index and pose) that is unreachable, violates a joint limit,
         jumps (branch flip) or is near-singular.
     """
-    dof = robot.dof
-    p_t = np.asarray(positions, dtype=float)
-    if p_t.ndim != 2 or p_t.shape[1] != 3 or p_t.shape[0] == 0:
-        raise InputError(f"positions must have shape (n, 3) with n >= 1, got {p_t.shape}")
-    n = p_t.shape[0]
-    if not np.all(np.isfinite(p_t)):
-        k = int(np.flatnonzero(~np.isfinite(p_t).all(axis=1))[0])
-        raise InputError(f"positions: sample {k} is not finite ({p_t[k]})")
-    z_t = np.asarray(tool_axes, dtype=float)
-    if z_t.shape != (n, 3):
-        raise InputError(f"tool_axes must have shape ({n}, 3) like positions, got {z_t.shape}")
-    z_t = _unit_rows(z_t, "tool_axes")
-    six_dof = x_axes is not None
-    if six_dof:
-        x_in = np.asarray(x_axes, dtype=float)
-        if x_in.shape != (n, 3):
-            raise InputError(f"x_axes must have shape ({n}, 3) like positions, got {x_in.shape}")
-        r_t = _target_rotations(z_t, x_in)
-        n_task = 6
-    else:
-        basis = _perpendicular_bases(z_t)  # (n, 3, 2)
-        n_task = 5
-    q0 = np.asarray(q_start, dtype=float)
-    if q0.shape != (dof,) or not np.all(np.isfinite(q0)):
-        raise InputError(f"q_start must have {dof} finite values, got {q_start!r}")
-    out_of_range = np.flatnonzero((q0 < robot.q_lower) | (q0 > robot.q_upper))
-    if out_of_range.size:
-        j = out_of_range[0]
-        raise InputError(
-            f"q_start: joint {j + 1} = {np.rad2deg(q0[j]):.3f} deg is outside its limits "
-            f"[{np.rad2deg(robot.q_lower[j]):.1f}, {np.rad2deg(robot.q_upper[j]):.1f}] deg"
-        )
+    options = IKOptions() if options is None else options
+    task = _validate_task(robot, positions, tool_axes, q_start, x_axes)
+    kin = _TcpKinematics(robot)
+    q = _sweep(kin, task, options)
+    pos_err, ang_err, jac = _refine(kin, task, q, options)
+    _check_converged(task, q, pos_err, ang_err, options)
+    cond = jacobian_condition_number(jac, options.condition_length)
+    _check_path(robot, task, q, cond, options)
+    return PathIK(q=q, condition_number=cond, position_error=pos_err, axis_error=ang_err)
 
-    model, data, fid = robot.model, robot.model.createData(), robot.tcp_frame_id
-    lwa = pin.LOCAL_WORLD_ALIGNED
-    posv = lapack.dposv
-    q_out = np.empty((n, dof))
-    eye = np.eye(n_task) * damping
-    e = np.empty(n_task)
-    jt = np.empty((n_task, dof))
-    coarse_p, coarse_a = 1e-4, 1e-3  # in Newton's quadratic region: refine in batch later
 
-    # Sequential sweep: warm start + first-order predictor, Newton until within the coarse
-    # tolerance (usually one step), so every sample tracks the previous one's branch.
-    q = q0.copy()
-    for k in range(n):
-        pk, zk = p_t[k], z_t[k]
-        if k >= 2:
-            q = q + (q_out[k - 1] - q_out[k - 2])
-        limit = max_iterations_first if k == 0 else max_iterations
-        done = False
-        for _ in range(limit):
-            pin.computeJointJacobians(model, data, q)
-            placement = pin.updateFramePlacement(model, data, fid)
-            jac = pin.getFrameJacobian(model, data, fid, lwa)
-            rot = placement.rotation
-            ep = pk - placement.translation
-            if six_dof:
-                ew = pin.log3(r_t[k] @ rot.T)
-                ea = float(np.sqrt(ew @ ew))
-            else:
-                z0, z1, z2 = rot[0, 2], rot[1, 2], rot[2, 2]
-                t0, t1, t2 = zk
-                ew = np.array([z1 * t2 - z2 * t1, z2 * t0 - z0 * t2, z0 * t1 - z1 * t0])
-                sn = float(np.sqrt(ew @ ew))
-                ea = float(np.arctan2(sn, z0 * t0 + z1 * t1 + z2 * t2))
-                if sn > 1e-300:
-                    ew *= ea / sn
-                if sn < 1e-9 and ea > 1.0:  # axis exactly reversed: rotate about any normal
-                    ew = basis[k][:, 0] * ea
-            ep_norm = float(np.sqrt(ep @ ep))
-            if ep_norm <= tol_position and ea <= tol_angle:
-                done = True
-                break
-            jt[:3] = jac[:3]
-            e[:3] = ep
-            if six_dof:
-                jt[3:] = jac[3:]
-                e[3:] = ew
-            else:
-                b = basis[k]
-                jt[3:] = b.T @ jac[3:]
-                e[3:] = b.T @ ew
-            _, x, info = posv(jt @ jt.T + eye, e)
-            dq = jt.T @ x if info == 0 else np.linalg.lstsq(jt, e, rcond=None)[0]
-            big = np.abs(dq).max()
-            if big > max_newton_step:
-                dq *= max_newton_step / big
-            q = q + dq
-            if ep_norm <= coarse_p and ea <= coarse_a:
-                done = True
-                break
-        q_out[k] = q
-        if not done or not np.all(np.isfinite(q)):
-            raise InputError(
-                f"IK: {_describe(k, pk, zk)} is unreachable: Newton did not converge "
-                f"(residual {ep_norm * 1e3:.3g} mm, {np.rad2deg(ea):.3g} deg); move the "
-                "workpiece closer to the robot or change q_start"
-            )
+# --------------------------------------------------------------------------- checks
 
-    # Batched refinement: pinocchio per sample, errors and Newton steps vectorised.
-    rot = np.empty((n, 3, 3))
-    pos = np.empty((n, 3))
-    jac_out = np.empty((n, 6, dof))
-    for _ in range(max_iterations + 1):
-        for k in range(n):
-            pin.computeJointJacobians(model, data, q_out[k])
-            placement = pin.updateFramePlacement(model, data, fid)
-            rot[k] = placement.rotation
-            pos[k] = placement.translation
-            jac_out[k] = pin.getFrameJacobian(model, data, fid, lwa)
-        ep = p_t - pos
-        if six_dof:
-            ew = _log3_batch(r_t @ np.swapaxes(rot, 1, 2))
-        else:
-            ew = _axis_error_batch(rot[:, :, 2], z_t, basis)
-        pos_err = np.linalg.norm(ep, axis=1)
-        ang_err = np.linalg.norm(ew, axis=1)
-        todo = np.flatnonzero((pos_err > tol_position) | (ang_err > tol_angle))
-        if not todo.size:
-            break
-        jb = jac_out[todo]
-        if six_dof:
-            jt_b, e_b = jb, np.concatenate([ep[todo], ew[todo]], axis=1)
-        else:
-            bt = np.swapaxes(basis[todo], 1, 2)  # (m, 2, 3)
-            jt_b = np.concatenate([jb[:, :3], bt @ jb[:, 3:]], axis=1)
-            e_b = np.concatenate([ep[todo], np.einsum("mij,mj->mi", bt, ew[todo])], axis=1)
-        a = jt_b @ np.swapaxes(jt_b, 1, 2) + eye
-        dq = np.einsum("mji,mj->mi", jt_b, np.linalg.solve(a, e_b[..., None])[..., 0])
-        big = np.abs(dq).max(axis=1, keepdims=True)
-        dq *= np.minimum(1.0, max_newton_step / np.maximum(big, 1e-300))
-        q_out[todo] += dq
 
+def _describe(k: int, position: np.ndarray, axis: np.ndarray) -> str:
+    p = np.asarray(position) / MM
+    return (
+        f"sample {k} (TCP x={p[0]:.3f}, y={p[1]:.3f}, z={p[2]:.3f} mm, tool axis "
+        f"[{axis[0]:.4f}, {axis[1]:.4f}, {axis[2]:.4f}])"
+    )
+
+
+def _unreachable(task: _Task, k: int, position_error: float, angle_error: float) -> InputError:
+    return InputError(
+        f"IK: {_describe(k, task.positions[k], task.tool_axes[k])} is unreachable: Newton did "
+        f"not converge (residual {position_error / MM:.3g} mm, {np.rad2deg(angle_error):.3g} "
+        "deg); move the workpiece closer to the robot or change q_start"
+    )
+
+
+def _check_converged(
+    task: _Task, q: np.ndarray, pos_err: np.ndarray, ang_err: np.ndarray, options: IKOptions
+) -> None:
+    """Raise for the first sample whose residual exceeds the failure limits (or q is NaN)."""
     bad = np.flatnonzero(
-        (pos_err > fail_position) | (ang_err > fail_angle) | ~np.isfinite(q_out).all(axis=1)
+        (pos_err > options.fail_position) | (ang_err > options.fail_angle)
+        | ~np.isfinite(q).all(axis=1)
     )
     if bad.size:
         k = int(bad[0])
-        raise InputError(
-            f"IK: {_describe(k, p_t[k], z_t[k])} is unreachable: Newton did not converge "
-            f"(residual {pos_err[k] * 1e3:.3g} mm, {np.rad2deg(ang_err[k]):.3g} deg); move the "
-            "workpiece closer to the robot or change q_start"
-        )
+        raise _unreachable(task, k, pos_err[k], ang_err[k])
 
-    cond = jacobian_condition_number(jac_out, condition_length)
-    _check_path(robot, q_out, cond, p_t, z_t, max_joint_step, max_condition)
-    return PathIK(q=q_out, condition_number=cond, position_error=pos_err, axis_error=ang_err)
+
+def _outside_limits(robot: RobotModel, q: np.ndarray, tol: float = 1e-9):
+    """Joints below (n, dof) and above (n, dof) their position limits (beyond ``tol`` rad)."""
+    return q < robot.q_lower - tol, q > robot.q_upper + tol
+
+
+def _joint_steps(q: np.ndarray) -> np.ndarray:
+    """|q_k - q_(k-1)| (n, dof) per joint, zero for the first sample."""
+    steps = np.zeros(q.shape)
+    if q.shape[0] > 1:
+        steps[1:] = np.abs(np.diff(q, axis=0))
+    return steps
 
 
 def _check_path(
-    robot: RobotModel,
-    q: np.ndarray,
-    cond: np.ndarray,
-    p_t: np.ndarray,
-    z_t: np.ndarray,
-    max_joint_step: float,
-    max_condition: float,
+    robot: RobotModel, task: _Task, q: np.ndarray, cond: np.ndarray, options: IKOptions
 ) -> None:
     """Raise InputError for the earliest sample with a limit, jump or singularity problem."""
-    n = q.shape[0]
-    tol = 1e-9
-    below = q < robot.q_lower - tol
-    above = q > robot.q_upper + tol
+    below, above = _outside_limits(robot, q)
+    steps = _joint_steps(q)
     limit_bad = np.any(below | above, axis=1)
-    jump = np.zeros(n, dtype=bool)
-    steps = np.zeros((n, q.shape[1]))
-    if n > 1:
-        steps[1:] = np.abs(np.diff(q, axis=0))
-        jump[1:] = np.any(steps[1:] > max_joint_step, axis=1)
-    singular = ~(cond <= max_condition)
+    jump = np.any(steps > options.max_joint_step, axis=1)
+    singular = ~(cond <= options.max_condition)
     bad = np.flatnonzero(limit_bad | jump | singular)
     if not bad.size:
         return
     k = int(bad[0])
-    where = _describe(k, p_t[k], z_t[k])
     problems = []
     if singular[k]:
-        problems.append(
-            f"near-singular pose (Jacobian condition number {cond[k]:.1f} > {max_condition:g})"
-        )
+        problems.append(f"near-singular pose (Jacobian condition number {cond[k]:.1f} > "
+                        f"{options.max_condition:g})")
     if limit_bad[k]:
         j = int(np.flatnonzero(below[k] | above[k])[0])
         problems.append(
@@ -359,10 +562,11 @@ def _check_path(
         j = int(np.argmax(steps[k]))
         problems.append(
             f"joint {j + 1} jumps by {np.rad2deg(steps[k, j]):.3f} deg from the previous sample "
-            f"(> {np.rad2deg(max_joint_step):.3f} deg: branch flip or path too coarse)"
+            f"(> {np.rad2deg(options.max_joint_step):.3f} deg: branch flip or path too coarse)"
         )
     q_deg = ", ".join(f"{v:.2f}" for v in np.rad2deg(q[k]))
     raise InputError(
-        f"IK: {where}: " + "; ".join(problems) + f" at q = [{q_deg}] deg. Move the workpiece, "
-        "change the start configuration or the tool axis so the path stays away from it"
+        f"IK: {_describe(k, task.positions[k], task.tool_axes[k])}: " + "; ".join(problems)
+        + f" at q = [{q_deg}] deg. Move the workpiece, change the start configuration or the "
+        "tool axis so the path stays away from it"
     )

@@ -7,22 +7,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from feedopt.robot.frames import rotation_from_rpy
+
 
 def rotation_from_abc(abc_deg: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) from KUKA A, B, C angles (..., 3) in degrees."""
-    a, b, c = np.moveaxis(np.deg2rad(np.asarray(abc_deg, dtype=float)), -1, 0)
-    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
-    r = np.empty(a.shape + (3, 3))
-    r[..., 0, 0] = ca * cb
-    r[..., 0, 1] = ca * sb * sc - sa * cc
-    r[..., 0, 2] = ca * sb * cc + sa * sc
-    r[..., 1, 0] = sa * cb
-    r[..., 1, 1] = sa * sb * sc + ca * cc
-    r[..., 1, 2] = sa * sb * cc - ca * sc
-    r[..., 2, 0] = -sb
-    r[..., 2, 1] = cb * sc
-    r[..., 2, 2] = cb * cc
-    return r
+    """Rotation matrices (..., 3, 3) from KUKA A, B, C angles (..., 3) in degrees.
+
+    ``Rz(A) Ry(B) Rx(C)`` is the roll-pitch-yaw rotation with roll = C, pitch = B, yaw = A
+    (:func:`feedopt.robot.frames.rotation_from_rpy`).
+    """
+    return rotation_from_rpy(np.asarray(abc_deg, dtype=float)[..., ::-1])
 
 
 def abc_from_rotation(rotation: np.ndarray) -> np.ndarray:

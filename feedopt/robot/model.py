@@ -26,12 +26,17 @@ import numpy as np
 import pinocchio as pin
 
 from feedopt.errors import InputError
+from feedopt.robot.frames import transform_from_xyz_rpy
+from feedopt.units import MM
 from feedopt.yamlio import read_yaml
 
 TCP_FRAME_NAME = "feedopt_tcp"
 #: Controller families a robot.yaml may name (``controller:``); ``generic`` gets no native
 #: program, only the RSI-style setpoint CSV.
 CONTROLLERS = ("kuka", "ur", "generic")
+#: robot.yaml gives joint stiffness in MN m/rad, speeds and accelerations in deg.
+_NM_PER_MNM = 1e6
+_RAD_PER_DEG = np.pi / 180.0
 
 
 @dataclass(frozen=True)
@@ -116,29 +121,25 @@ def _as_vector(entry: object, dof: int, what: str) -> np.ndarray:
 
 
 def _tool_transform(tool: dict, where: Path) -> np.ndarray:
-    xyz = _as_vector(tool.get("tcp_xyz_mm", [0, 0, 0]), 3, f"{where}: tool.tcp_xyz_mm") * 1e-3
+    """Flange -> TCP transform (4, 4) [m] from ``tool.tcp_xyz_mm`` and ``tool.tcp_rpy_deg``."""
+    xyz = _as_vector(tool.get("tcp_xyz_mm", [0, 0, 0]), 3, f"{where}: tool.tcp_xyz_mm") * MM
     rpy = _as_vector(tool.get("tcp_rpy_deg", [0, 0, 0]), 3, f"{where}: tool.tcp_rpy_deg")
-    t = np.eye(4)
-    t[:3, :3] = pin.rpy.rpyToMatrix(*np.deg2rad(rpy))
-    t[:3, 3] = xyz
-    return t
+    return transform_from_xyz_rpy(xyz, rpy)
 
 
-def load_robot(directory: str | Path) -> RobotModel:
-    """Load a robot directory (``robot.yaml`` + the URDF it names) into a :class:`RobotModel`.
-
-    Raises
-    ------
-    InputError
-        Missing files or fields, wrong vector lengths, non-positive stiffness or limits.
-    """
-    directory = Path(directory)
+def _read_robot_yaml(directory: Path) -> tuple[dict, Path]:
+    """``robot.yaml`` of ``directory`` as a mapping, and its path."""
     yaml_path = directory / "robot.yaml"
     if not yaml_path.is_file():
         raise InputError(f"{directory}: no robot.yaml found (a robot directory needs one)")
     doc = read_yaml(yaml_path, "robot file") or {}
     if not isinstance(doc, dict):
         raise InputError(f"{yaml_path}: expected a mapping at the top level")
+    return doc, yaml_path
+
+
+def _read_kinematics(doc: dict, directory: Path, yaml_path: Path) -> tuple[pin.Model, Path]:
+    """The pinocchio model of the URDF that ``robot.yaml`` names, and its path."""
     if "urdf" not in doc:
         raise InputError(f"{yaml_path}: missing field 'urdf' (file name of the URDF)")
     urdf_path = directory / str(doc["urdf"])
@@ -148,16 +149,25 @@ def load_robot(directory: str | Path) -> RobotModel:
         model = pin.buildModelFromUrdf(str(urdf_path))
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"{urdf_path}: pinocchio could not read the URDF: {exc}") from exc
-    dof = int(model.nq)
-    if model.nv != dof:
+    if model.nv != model.nq:
         raise InputError(f"{urdf_path}: only revolute/prismatic joints are supported (nq != nv)")
+    return model, urdf_path
 
-    sources: dict[str, str] = {
-        "kinematics": str(doc.get("kinematics_source", f"URDF {urdf_path.name}")),
-        "joint_limits": str(doc.get("joint_limits_source", f"URDF {urdf_path.name} <limit>")),
-    }
 
-    # TCP frame: either one already in the URDF, or flange frame + tool transform.
+def _add_tcp_frame(
+    model: pin.Model, doc: dict, yaml_path: Path, urdf_path: Path
+) -> tuple[int, np.ndarray, str]:
+    """The TCP frame, either one already in the URDF (``tcp_frame``) or the flange
+    frame + the tool transform (added to ``model`` as :data:`TCP_FRAME_NAME`).
+
+    Returns
+    -------
+    tcp_frame_id : int
+    tcp_offset : (4, 4) array
+        Flange -> TCP [m] (identity for ``tcp_frame``).
+    source : str
+        Where the tool numbers come from.
+    """
     tool = doc.get("tool") or {}
     if not isinstance(tool, dict):
         raise InputError(f"{yaml_path}: 'tool' must be a mapping")
@@ -165,26 +175,24 @@ def load_robot(directory: str | Path) -> RobotModel:
         name = str(doc["tcp_frame"])
         if not model.existFrame(name):
             raise InputError(f"{yaml_path}: tcp_frame '{name}' is not a frame of {urdf_path.name}")
-        tcp_frame_id = int(model.getFrameId(name))
-        tcp_offset = np.eye(4)
-        sources["tool"] = str(tool.get("source", f"TCP frame '{name}' of the URDF"))
-    else:
-        flange = str(doc.get("flange_frame", ""))
-        if not flange or not model.existFrame(flange):
-            raise InputError(
-                f"{yaml_path}: give 'tcp_frame' or a 'flange_frame' that exists in "
-                f"{urdf_path.name} (got {flange!r})"
-            )
-        fid = int(model.getFrameId(flange))
-        tcp_offset = _tool_transform(tool, yaml_path)
-        parent = model.frames[fid]
-        placement = parent.placement * pin.SE3(tcp_offset[:3, :3], tcp_offset[:3, 3])
-        frame = pin.Frame(
-            TCP_FRAME_NAME, parent.parentJoint, fid, placement, pin.FrameType.OP_FRAME
+        source = str(tool.get("source", f"TCP frame '{name}' of the URDF"))
+        return int(model.getFrameId(name)), np.eye(4), source
+    flange = str(doc.get("flange_frame", ""))
+    if not flange or not model.existFrame(flange):
+        raise InputError(
+            f"{yaml_path}: give 'tcp_frame' or a 'flange_frame' that exists in "
+            f"{urdf_path.name} (got {flange!r})"
         )
-        tcp_frame_id = int(model.addFrame(frame))
-        sources["tool"] = str(tool.get("source", "not stated"))
+    fid = int(model.getFrameId(flange))
+    tcp_offset = _tool_transform(tool, yaml_path)
+    parent = model.frames[fid]
+    placement = parent.placement * pin.SE3(tcp_offset[:3, :3], tcp_offset[:3, 3])
+    frame = pin.Frame(TCP_FRAME_NAME, parent.parentJoint, fid, placement, pin.FrameType.OP_FRAME)
+    return int(model.addFrame(frame)), tcp_offset, str(tool.get("source", "not stated"))
 
+
+def _read_stiffness(doc: dict, dof: int, yaml_path: Path) -> tuple[dict[str, np.ndarray], str]:
+    """Joint stiffness sets [N m/rad] by name, and their source."""
     stiff_doc = doc.get("joint_stiffness_mnm_per_rad")
     if not isinstance(stiff_doc, dict):
         raise InputError(
@@ -198,24 +206,23 @@ def load_robot(directory: str | Path) -> RobotModel:
         arr = _as_vector(val, dof, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}")
         if np.any(arr <= 0):
             raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad.{key} must be > 0")
-        stiffness[str(key)] = arr * 1e6
+        stiffness[str(key)] = arr * _NM_PER_MNM
     if not stiffness:
         raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad has no stiffness set")
-    sources["stiffness"] = str(stiff_doc.get("source", "not stated"))
+    return stiffness, str(stiff_doc.get("source", "not stated"))
 
-    vel, sources["joint_velocity"] = _values(
-        doc, "joint_velocity_deg_s", dof, np.pi / 180.0, yaml_path
-    )
-    acc, sources["joint_acceleration"] = _values(
-        doc, "joint_acceleration_deg_s2", dof, np.pi / 180.0, yaml_path
-    )
 
+def _read_position_limits(model: pin.Model, urdf_path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Joint position limits [rad] from the URDF's ``<limit>``."""
     q_lower = np.asarray(model.lowerPositionLimit, dtype=float).copy()
     q_upper = np.asarray(model.upperPositionLimit, dtype=float).copy()
     if np.any(~np.isfinite(q_lower)) or np.any(~np.isfinite(q_upper)) or np.any(q_lower >= q_upper):
         raise InputError(f"{urdf_path}: every joint needs a finite <limit lower upper>")
+    return q_lower, q_upper
 
-    names = tuple(model.names[i] for i in range(1, model.njoints))
+
+def _read_controller_and_warnings(doc: dict, yaml_path: Path) -> tuple[str, tuple[str, ...]]:
+    """Controller family and the data warnings (whitespace collapsed)."""
     controller = doc.get("controller", "generic")
     if controller not in CONTROLLERS:
         raise InputError(f"{yaml_path}: controller must be one of {', '.join(CONTROLLERS)}, "
@@ -223,6 +230,36 @@ def load_robot(directory: str | Path) -> RobotModel:
     warnings = doc.get("warnings", [])
     if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
         raise InputError(f"{yaml_path}: warnings must be a list of sentences (strings)")
+    return controller, tuple(" ".join(w.split()) for w in warnings)
+
+
+def load_robot(directory: str | Path) -> RobotModel:
+    """Load a robot directory (``robot.yaml`` + the URDF it names) into a :class:`RobotModel`.
+
+    Phases: read ``robot.yaml``; kinematics (URDF); TCP frame; joint stiffness; joint limits
+    (speed, acceleration, position); controller and data warnings.
+
+    Raises
+    ------
+    InputError
+        Missing files or fields, wrong vector lengths, non-positive stiffness or limits.
+    """
+    directory = Path(directory)
+    doc, yaml_path = _read_robot_yaml(directory)
+    model, urdf_path = _read_kinematics(doc, directory, yaml_path)
+    dof = int(model.nq)
+    sources: dict[str, str] = {
+        "kinematics": str(doc.get("kinematics_source", f"URDF {urdf_path.name}")),
+        "joint_limits": str(doc.get("joint_limits_source", f"URDF {urdf_path.name} <limit>")),
+    }
+    tcp_frame_id, tcp_offset, sources["tool"] = _add_tcp_frame(model, doc, yaml_path, urdf_path)
+    stiffness, sources["stiffness"] = _read_stiffness(doc, dof, yaml_path)
+    vel, sources["joint_velocity"] = _values(doc, "joint_velocity_deg_s", dof, _RAD_PER_DEG,
+                                             yaml_path)
+    acc, sources["joint_acceleration"] = _values(doc, "joint_acceleration_deg_s2", dof,
+                                                 _RAD_PER_DEG, yaml_path)
+    q_lower, q_upper = _read_position_limits(model, urdf_path)
+    controller, data_warnings = _read_controller_and_warnings(doc, yaml_path)
     return RobotModel(
         name=str(doc.get("name", directory.name)),
         model=model,
@@ -234,9 +271,9 @@ def load_robot(directory: str | Path) -> RobotModel:
         stiffness=stiffness,
         tcp_offset=tcp_offset,
         sources=sources,
-        joint_names=names,
+        joint_names=tuple(model.names[i] for i in range(1, model.njoints)),
         controller=controller,
-        data_warnings=tuple(" ".join(w.split()) for w in warnings),
+        data_warnings=data_warnings,
     )
 
 

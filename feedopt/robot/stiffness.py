@@ -22,7 +22,20 @@ from feedopt.robot.model import RobotModel, tcp_jacobians
 
 
 def joint_stiffness(robot: RobotModel, stiffness: str | np.ndarray = "dpp") -> np.ndarray:
-    """Joint stiffness vector (dof,) [N m/rad] from a set name or explicit values."""
+    """Joint stiffness vector (dof,) [N m/rad] from a set name or explicit values.
+
+    Parameters
+    ----------
+    robot : RobotModel
+    stiffness : str or (dof,) array
+        Name of a set of ``robot.yaml`` (``"cp"``, ``"dpp"``: thesis Table 3.4; case does not
+        matter) or the diagonal of K itself [N m/rad].
+
+    Raises
+    ------
+    InputError
+        Unknown set name, or values that are not ``dof`` positive finite numbers.
+    """
     if isinstance(stiffness, str):
         key = stiffness.lower()
         if key not in robot.stiffness:
@@ -50,6 +63,21 @@ def compliance(
     ``C = J K^-1 J^T`` (Eq. 3.19; Eq. 3.20 with the DPP set, arm + wrist terms). With the
     complementary stiffness ``k_c`` (n, dof, dof) from :func:`complementary_stiffness`,
     ``C = J (K - K_c)^-1 J^T`` (Eq. 3.18).
+
+    Parameters
+    ----------
+    robot : RobotModel
+    q : (n, dof) array
+        Joint configurations [rad].
+    stiffness : str or (dof,) array
+        Joint stiffness set name or values (:func:`joint_stiffness`).
+    k_c : (n, dof, dof) array or None
+        Complementary stiffness [N m/rad]; ``None`` neglects it (Eq. 3.19/3.20).
+
+    Returns
+    -------
+    (n, 6, 6) array
+        ``[dx; dtheta] = C [f; m]``, rows and columns in base axes at the TCP.
     """
     k = joint_stiffness(robot, stiffness)
     jac = tcp_jacobians(robot, q)
@@ -59,7 +87,22 @@ def compliance(
 def compliance_from_jacobians(
     jacobians: np.ndarray, k: np.ndarray, k_c: np.ndarray | None = None
 ) -> np.ndarray:
-    """``J K^-1 J^T`` (or ``J (K - K_c)^-1 J^T``) for Jacobians (..., 6, dof)."""
+    """``J K^-1 J^T`` (Eq. 3.19/3.20) or ``J (K - K_c)^-1 J^T`` (Eq. 3.18).
+
+    Parameters
+    ----------
+    jacobians : (..., 6, dof) array
+        TCP Jacobians in the base-aligned TCP frame (:func:`feedopt.robot.model.tcp_jacobians`).
+    k : (dof,) array
+        Joint stiffness [N m/rad].
+    k_c : (..., dof, dof) array or None
+        Complementary stiffness [N m/rad] (:func:`complementary_stiffness`).
+
+    Returns
+    -------
+    (..., 6, 6) array
+        Compliance [m/N, m/(N m), rad/N, rad/(N m)].
+    """
     jac = np.asarray(jacobians, dtype=float)
     if k_c is None:
         return np.einsum("...ij,j,...kj->...ik", jac, 1.0 / k, jac)
@@ -71,7 +114,10 @@ def compliance_from_jacobians(
 def compliance_split(
     robot: RobotModel, q: np.ndarray, stiffness: str | np.ndarray = "dpp", n_arm: int = 3
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Arm and wrist terms of Eq. 3.20, each (n, 6, 6): ``J K_123^-1 J^T``, ``J K_456^-1 J^T``."""
+    """Arm and wrist terms of Eq. 3.20, each (n, 6, 6): ``J K_123^-1 J^T``, ``J K_456^-1 J^T``.
+
+    Their sum is :func:`compliance` of the same set; ``n_arm`` joints count as the arm.
+    """
     k = joint_stiffness(robot, stiffness)
     jac = tcp_jacobians(robot, q)
     inv = 1.0 / k
@@ -87,13 +133,20 @@ def compliance_split(
 def translational_compliance(
     robot: RobotModel, q: np.ndarray, stiffness: str | np.ndarray = "dpp"
 ) -> np.ndarray:
-    """Translational compliance (n, 3, 3) [m/N]: TCP displacement per force at the TCP."""
+    """Translational compliance (n, 3, 3) [m/N]: TCP displacement per force at the TCP.
+
+    The upper-left block of :func:`compliance` (Eq. 3.19, DPP: Eq. 3.20) for a pure force on
+    the tool at the TCP (no moment), in base axes; the tool is rigid and K_c is neglected.
+
+    Parameters
+    ----------
+    robot : RobotModel
+    q : (n, dof) array
+        Joint configurations [rad].
+    stiffness : str or (dof,) array
+        Joint stiffness set name or values (:func:`joint_stiffness`).
+    """
     return compliance(robot, q, stiffness)[..., :3, :3]
-
-
-def translational_stiffness(compliance_3x3: np.ndarray) -> np.ndarray:
-    """Inverse of translational compliance (..., 3, 3) [N/m] (force-only loading)."""
-    return np.linalg.inv(compliance_3x3)
 
 
 def deflection(compliance_3x3: np.ndarray, force: np.ndarray) -> np.ndarray:

@@ -8,26 +8,66 @@ intersected (minimum) over angles. For a directional limit |c a_n + b_n| <= L is
 The thesis reached the same feed by lowering it iteratively (section 3.5, step 6).
 The feed is further bounded by the user's maximum feed, spindle torque and power
 (Tc = D/2 Ft, Pc = Tc omega, Algorithm 1) and joint velocity limits.
+
+Each bound is a constraint object in the style of toppra's constraint classes: it has a
+``name`` and gives ``v_max`` per sample from a :class:`BoundInputs`; the feed bound is their
+minimum and records which one is active where. :data:`CONSTRAINTS` is the registry, the one
+place a new constraint (chatter, chip thickness, a force limit, ...) is registered.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.process.forces import critical_angles, milling_forces_at
 from feedopt.schedule.deflection import DeflectionModel
+from feedopt.units import MM
 
-CONSTRAINTS = ("deflection", "max_feed", "spindle_torque", "spindle_power", "joint_velocity")
+
+@dataclass(frozen=True, eq=False)
+class BoundInputs:
+    """Everything a feed-bound constraint may use, SI units, one entry per path sample.
+
+    ``cache`` lets constraints that share a computation (spindle torque and power come from
+    the same force pass) do it once per bound.
+    """
+
+    model: DeflectionModel
+    limit: float  # deflection limit [m]
+    max_feed: float  # [m/s]
+    dq_ds: np.ndarray  # (n, dof) [rad/m]
+    joint_velocity_max: np.ndarray  # (dof,) [rad/s]
+    torque_max: float = np.inf  # spindle [N m]
+    power_max: float = np.inf  # spindle [W]
+    positions: np.ndarray | None = None  # (n, 3) base frame [m], for messages
+    cache: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return self.model.n
+
+
+class FeedConstraint(Protocol):
+    """A per-sample upper bound on the path feed (toppra-style constraint object)."""
+
+    name: str
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        """(n,) largest feed [m/s] this constraint allows at each sample (``inf``: none)."""
+        ...
 
 
 @dataclass(frozen=True)
 class FeedBound:
     """v_max(s) and its parts, all (n,) arrays in m/s (``inf`` where a part does not bind).
 
-    ``active`` holds, per sample, the index into :data:`CONSTRAINTS` of the tightest part.
+    ``active`` holds, per sample, the index into ``names`` (the constraints, in order) of
+    the tightest part.
     ``zero_feed_deflection`` is the deflection from edge forces alone [m].
     """
 
@@ -35,15 +75,16 @@ class FeedBound:
     parts: dict[str, np.ndarray]
     active: np.ndarray
     zero_feed_deflection: np.ndarray
+    names: tuple[str, ...] = ()
 
     def active_names(self) -> np.ndarray:
         """Name of the active constraint per sample."""
-        return np.asarray(CONSTRAINTS)[self.active]
+        return np.asarray(self.names)[self.active]
 
     def active_fraction(self) -> dict[str, float]:
         """Share of samples on which each constraint is the tightest."""
         n = self.active.size
-        return {name: float(np.sum(self.active == i)) / n for i, name in enumerate(CONSTRAINTS)}
+        return {name: float(np.sum(self.active == i)) / n for i, name in enumerate(self.names)}
 
 
 def _upper_roots_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
@@ -127,8 +168,8 @@ def spindle_feed_bounds(
         sl = slice(start, min(start + step, model.n))
         idx = np.arange(sl.start, sl.stop)
         split, row = model.forces(idx)
-        crit = critical_angles(model.tool, model._engagement(sl), model.axial_slices)
-        at = milling_forces_at(model.tool, model.coefficients, model._engagement(sl), crit,
+        crit = critical_angles(model.tool, model.engagement_slice(sl), model.axial_slices)
+        at = milling_forces_at(model.tool, model.coefficients, model.engagement_slice(sl), crit,
                                axial_slices=model.axial_slices)
         tc = np.concatenate([split.cutting_torque[row], at.cutting_torque], axis=1)
         te = np.concatenate([split.edge_torque[row], at.edge_torque], axis=1)
@@ -146,54 +187,119 @@ def joint_velocity_feed_bound(dq_ds: np.ndarray, joint_velocity_max: np.ndarray)
         return np.min(joint_velocity_max / np.abs(dq_ds), axis=1)
 
 
-def feed_bound(
-    model: DeflectionModel,
-    limit: float,
-    max_feed: float,
-    dq_ds: np.ndarray,
-    joint_velocity_max: np.ndarray,
-    torque_max: float = np.inf,
-    power_max: float = np.inf,
-    positions: np.ndarray | None = None,
-) -> FeedBound:
-    """Combine every feed bound into v_max(s).
+def _spindle(inputs: BoundInputs) -> tuple[np.ndarray, np.ndarray]:
+    if "spindle" not in inputs.cache:
+        v_t, v_p = spindle_feed_bounds(inputs.model, inputs.torque_max, inputs.power_max)
+        if np.any(v_t <= 0) or np.any(v_p <= 0):
+            raise InputError(
+                "the spindle cannot take this cut even at zero feed: edge-force torque or power "
+                f"exceeds the spindle's {inputs.torque_max:g} N m / {inputs.power_max:g} W"
+            )
+        inputs.cache["spindle"] = (v_t, v_p)
+    return inputs.cache["spindle"]
+
+
+@dataclass(frozen=True)
+class DeflectionConstraint:
+    """The user's deflection limit, in closed form (module docstring)."""
+
+    name: str = "deflection"
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        """InputError if the edge forces alone (zero feed) exceed the limit somewhere, naming
+        the worst sample, its position, the zero-feed deflection and the smallest workable
+        limit."""
+        limit = inputs.limit
+        v_defl, zero = deflection_feed_bound(inputs.model, limit)
+        inputs.cache["zero_feed_deflection"] = zero
+        bad = np.flatnonzero(zero > limit)
+        if bad.size:
+            i = int(bad[np.argmax(zero[bad])])
+            where = (f" at ({', '.join(f'{x / MM:.3f}' for x in inputs.positions[i])}) mm"
+                     if inputs.positions is not None else "")
+            raise InputError(
+                f"deflection limit {limit / MM:.4g} mm is exceeded by the edge forces alone "
+                f"(zero feed) at {bad.size} samples; the worst is sample {i}{where} with "
+                f"{zero[i] / MM:.4g} mm at zero feed ({(zero[i] - limit) / MM:.3g} mm over). "
+                f"The smallest limit that allows any feed is above {zero.max() / MM:.4g} mm."
+            )
+        return v_defl
+
+
+@dataclass(frozen=True)
+class MaxFeedConstraint:
+    """The largest feed the user allows (``feed.max_mm_s``, default the nominal feed)."""
+
+    name: str = "max_feed"
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        return np.full(inputs.n, float(inputs.max_feed))
+
+
+@dataclass(frozen=True)
+class SpindleTorqueConstraint:
+    """Spindle torque: instantaneous Tc = D/2 Ft over a revolution (Algorithm 1)."""
+
+    name: str = "spindle_torque"
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        return _spindle(inputs)[0]
+
+
+@dataclass(frozen=True)
+class SpindlePowerConstraint:
+    """Spindle power: Pc = Tc omega over a revolution (Algorithm 1)."""
+
+    name: str = "spindle_power"
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        return _spindle(inputs)[1]
+
+
+@dataclass(frozen=True)
+class JointVelocityConstraint:
+    """|dq/ds| sdot <= qdot_max for every joint."""
+
+    name: str = "joint_velocity"
+
+    def v_max(self, inputs: BoundInputs) -> np.ndarray:
+        return joint_velocity_feed_bound(inputs.dq_ds, inputs.joint_velocity_max)
+
+
+#: The registry: constraint name -> factory of the constraint object. The bound is the
+#: minimum of all of them; their order is the order of the active-constraint record.
+CONSTRAINTS: dict[str, Callable[[], FeedConstraint]] = {}
+
+
+def register_constraint(name: str, factory: Callable[[], FeedConstraint]) -> None:
+    """Add a feed-bound constraint (ValueError for a name already registered)."""
+    if name in CONSTRAINTS:
+        raise ValueError(f"feed-bound constraint {name!r} is already registered")
+    CONSTRAINTS[name] = factory
+
+
+for _cls in (DeflectionConstraint, MaxFeedConstraint, SpindleTorqueConstraint,
+             SpindlePowerConstraint, JointVelocityConstraint):
+    register_constraint(_cls.name, _cls)
+
+
+def feed_bound(inputs: BoundInputs,
+               constraints: list[FeedConstraint] | None = None) -> FeedBound:
+    """v_max(s): the minimum over ``constraints`` (default: every registered one).
 
     Raises
     ------
     InputError
-        If the edge forces alone (zero feed) deflect the robot beyond ``limit`` somewhere,
-        naming the first such sample, its position, the zero-feed deflection and the
-        smallest limit that leaves room for any feed; or if the spindle cannot cut at all.
+        From a constraint that leaves no feed at all (the deflection limit below the
+        zero-feed deflection, a spindle that cannot take the cut).
     """
-    v_defl, zero = deflection_feed_bound(model, limit)
-    bad = np.flatnonzero(zero > limit)
-    if bad.size:
-        i = int(bad[np.argmax(zero[bad])])
-        where = (
-            f" at ({', '.join(f'{x * 1e3:.3f}' for x in positions[i])}) mm"
-            if positions is not None
-            else ""
-        )
-        raise InputError(
-            f"deflection limit {limit * 1e3:.4g} mm is exceeded by the edge forces alone "
-            f"(zero feed) at {bad.size} samples; the worst is sample {i}{where} with "
-            f"{zero[i] * 1e3:.4g} mm at zero feed ({(zero[i] - limit) * 1e3:.3g} mm over). "
-            f"The smallest limit that allows any feed is above {zero.max() * 1e3:.4g} mm."
-        )
-    v_t, v_p = spindle_feed_bounds(model, torque_max, power_max)
-    if np.any(v_t <= 0) or np.any(v_p <= 0):
-        raise InputError(
-            "the spindle cannot take this cut even at zero feed: edge-force torque or power "
-            f"exceeds the spindle's {torque_max:g} N m / {power_max:g} W"
-        )
-    parts = {
-        "deflection": v_defl,
-        "max_feed": np.full(model.n, float(max_feed)),
-        "spindle_torque": v_t,
-        "spindle_power": v_p,
-        "joint_velocity": joint_velocity_feed_bound(dq_ds, joint_velocity_max),
-    }
-    stack = np.stack([parts[name] for name in CONSTRAINTS], axis=0)
+    if constraints is None:
+        constraints = [factory() for factory in CONSTRAINTS.values()]
+    parts = {c.name: np.asarray(c.v_max(inputs), dtype=float) for c in constraints}
+    names = tuple(parts)
+    stack = np.stack([parts[name] for name in names], axis=0)
     active = np.argmin(stack, axis=0)
-    v_max = stack[active, np.arange(model.n)]
-    return FeedBound(v_max=v_max, parts=parts, active=active, zero_feed_deflection=zero)
+    v_max = stack[active, np.arange(inputs.n)]
+    zero = inputs.cache.get("zero_feed_deflection", np.zeros(inputs.n))
+    return FeedBound(v_max=v_max, parts=parts, active=active, zero_feed_deflection=zero,
+                     names=names)

@@ -11,14 +11,21 @@ from s = 0 to the first instant at which the feed stops increasing (sddot <= 0) 
 feed bound v_max(s) (within :data:`BOUND_REACHED_RTOL`, the ramp then ends with the polynomial
 piece in which that happens), whichever comes first; the stop ramp is the same seen backwards
 from the end of the path. ``min_cutting_feed`` is the smallest feed between the two ramps.
+
+What :func:`check_timing` finds violated is typed (:class:`Violation` flags beside the problem
+strings). The input checks every law shares are here too: :func:`check_boundary_feeds` (the
+start and end feeds against the bound) and :func:`check_positive_bound`.
 """
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from feedopt.errors import InputError
+from feedopt.schedule.polynomial import horner, sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
@@ -33,6 +40,79 @@ _FLAT_ACCEL_RTOL = 1e-9
 _EVENT_TOL = 1e-12
 # Points per event interval where a ramp is compared with the bound.
 _BOUND_POINTS = 8
+#: Relative slack with which a law accepts a boundary feed at the bound (rounding of inputs).
+BOUNDARY_FEED_RTOL = 1e-12
+
+
+class Violation(enum.Flag):
+    """What a :class:`TimingCheck` found violated; one flag per kind of problem string.
+
+    Code tests the flags (``Violation.REVERSAL in check.violations``), people read
+    ``problems``; every problem string comes with its flag.
+    """
+
+    NONE = 0
+    FEED_BOUND = enum.auto()  #: sdot > v_max on a sample
+    ACCELERATION = enum.auto()  #: |sddot| > accel_max
+    JERK = enum.auto()  #: |sdddot| > jerk_max (C2 laws)
+    REVERSAL = enum.auto()  #: sdot < 0: the tool would move backwards
+    C2 = enum.auto()  #: claims C2 but the acceleration jumps
+    JOINT_VELOCITY = enum.auto()
+    JOINT_ACCELERATION = enum.auto()
+    START_FEED = enum.auto()  #: the feed at t = 0 is not v_start
+    END_FEED = enum.auto()  #: the feed at the end is not v_end
+    LENGTH = enum.auto()  #: s(t) does not cover the path
+    NON_FINITE = enum.auto()  #: the trajectory has non-finite coefficients (nothing checked)
+
+
+def check_boundary_feeds(
+    law: str,
+    problem: ScheduleProblem,
+    start_bound: float | None = None,
+    end_bound: float | None = None,
+    rtol: float = BOUNDARY_FEED_RTOL,
+    names: tuple[str, str] = ("v_start", "v_end"),
+    who: str | None = None,
+) -> None:
+    """Refuse boundary feeds a law cannot start or end at: the check every law shares.
+
+    The runner makes the same check once before planning, naming the scenario fields
+    (``names``) and itself (``who``, default ``"<law> law"``).
+
+    ``v_start`` and ``v_end`` must lie in ``[0, bound (1 + rtol)]``, where the bound at each
+    end is ``v_max`` at the first / last sample unless the law passes a tighter one (toppra and
+    the SOCP fold the joint velocity limits in, the jerk law its first / last section cap).
+
+    Raises
+    ------
+    InputError
+        Naming the law, the boundary feed, the bound and the sample, in mm/s.
+    """
+    bounds = (
+        float(problem.v_max[0]) if start_bound is None else float(start_bound),
+        float(problem.v_max[-1]) if end_bound is None else float(end_bound),
+    )
+    for name, where, k, v, bound in (
+        (names[0], "start", 0, problem.v_start, bounds[0]),
+        (names[1], "end", problem.n - 1, problem.v_end, bounds[1]),
+    ):
+        if v < 0 or v > bound * (1 + rtol):
+            raise InputError(
+                f"{who or law + ' law'}: {name} = {v / MM:.6g} mm/s is outside "
+                f"[0, {bound / MM:.6g}] mm/s, "
+                f"the feed bound at the path {where} (sample {k})"
+            )
+
+
+def check_positive_bound(law: str, problem: ScheduleProblem, bound: np.ndarray) -> None:
+    """Refuse a per-sample feed bound that is not positive (or NaN) somewhere (InputError)."""
+    bad = ~(np.asarray(bound) > 0)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise InputError(
+            f"{law} law: the feed bound is {bound[k] / MM:.6g} mm/s at sample {k} "
+            f"(s = {problem.s[k] / MM:.3f} mm); every sample needs a positive bound"
+        )
 
 
 @dataclass(frozen=True)
@@ -99,6 +179,7 @@ class TimingCheck:
     start_ramp: Ramp = field(default_factory=Ramp.nan)
     stop_ramp: Ramp = field(default_factory=Ramp.nan)
     problems: tuple[str, ...] = field(default_factory=tuple)
+    violations: Violation = Violation.NONE
 
     @property
     def ok(self) -> bool:
@@ -115,10 +196,8 @@ def breakpoint_jumps(trajectory: Trajectory, order: int) -> np.ndarray:
     if d.c.shape[0] == 0:
         return np.zeros(pp.x.size - 2)
     h = np.diff(pp.x)[:-1]
-    # left limit: end of piece i evaluated by Horner at h_i; right limit: constant term of i+1
-    left = np.zeros(h.size)
-    for row in d.c[:, :-1]:
-        left = left * h + row
+    # left limit: end of piece i evaluated at h_i; right limit: constant term of piece i+1
+    left = horner(d.c[:, :-1], h)
     right = d.c[-1, 1:]
     return np.abs(left - right)
 
@@ -152,8 +231,7 @@ def _bound_reached(trajectory: Trajectory, problem: ScheduleProblem, ev: np.ndar
     the last such interval (for the stop ramp, seen backwards).
     """
     pp = trajectory.timing
-    u = np.linspace(0.0, 1.0, _BOUND_POINTS, endpoint=False)
-    grid = np.append((ev[:-1, None] + np.diff(ev)[:, None] * u[None, :]).ravel(), ev[-1])
+    grid = sample_pieces(ev, _BOUND_POINTS, endpoint=False)
     s = np.clip(pp(grid), problem.s[0], problem.s[-1])
     gap = pp.derivative(1)(grid) - (1.0 - BOUND_REACHED_RTOL) * np.interp(
         s, problem.s, problem.v_max)
@@ -242,6 +320,12 @@ def check_timing(
     """
     pp = trajectory.timing
     problems: list[str] = []
+    violations = Violation.NONE
+
+    def report(kind: Violation, message: str) -> None:
+        nonlocal violations
+        violations |= kind
+        problems.append(message)
 
     # Feed at the path samples (exact inverse of s(t)).
     t_samples = trajectory.time_at(problem.s)
@@ -249,16 +333,15 @@ def check_timing(
     ratio = motion.sdot / problem.v_max
     worst = int(np.argmax(ratio))
     if enforce_feed_bound and ratio[worst] > 1 + rtol:
-        problems.append(
+        report(
+            Violation.FEED_BOUND,
             f"feed {motion.sdot[worst] / MM:.6g} mm/s exceeds its bound "
             f"{problem.v_max[worst] / MM:.6g} mm/s at s = {problem.s[worst] / MM:.3f} mm "
             f"(sample {worst}, ratio {ratio[worst]:.6f})"
         )
 
     # Dense evaluation per piece for acceleration / jerk extrema.
-    u = np.linspace(0.0, 1.0, _POINTS_PER_PIECE)
-    t_dense = (pp.x[:-1, None] + np.diff(pp.x)[:, None] * u[None, :]).ravel()
-    dense = trajectory.at(t_dense)
+    dense = trajectory.at(sample_pieces(pp.x, _POINTS_PER_PIECE))
     i_acc = int(np.argmax(np.abs(dense.sddot)))
     i_jerk = int(np.argmax(np.abs(dense.sdddot)))
     max_accel = float(abs(dense.sddot[i_acc]))
@@ -268,19 +351,22 @@ def check_timing(
         return f"at t = {dense.t[i]:.4f} s, s = {dense.s[i] / MM:.3f} mm"
 
     if max_accel > problem.accel_max * (1 + rtol):
-        problems.append(
+        report(
+            Violation.ACCELERATION,
             f"tangential acceleration {max_accel / MM:.6g} mm/s^2 exceeds its limit "
             f"{problem.accel_max / MM:.6g} mm/s^2 {where(i_acc)}"
         )
     if np.isfinite(problem.jerk_max) and trajectory.continuity >= 2:
         if max_jerk > problem.jerk_max * (1 + rtol):
-            problems.append(
+            report(
+                Violation.JERK,
                 f"tangential jerk {max_jerk / MM:.6g} mm/s^3 exceeds its limit "
                 f"{problem.jerk_max / MM:.6g} mm/s^3 {where(i_jerk)}"
             )
     i_min = int(np.argmin(dense.sdot))
     if dense.sdot[i_min] < -1e-9 * max(1.0, float(np.max(dense.sdot))):
-        problems.append(
+        report(
+            Violation.REVERSAL,
             f"the path velocity becomes negative ({dense.sdot[i_min] / MM:.4g} mm/s "
             f"{where(i_min)}): the tool would reverse"
         )
@@ -296,7 +382,7 @@ def check_timing(
         k = int(np.argmax(a_jump)) if a_jump.size else 0
         at = (f" at t = {pp.x[k + 1]:.4f} s, s = {float(pp(pp.x[k + 1])) / MM:.3f} mm"
               if a_jump.size else "")
-        problems.append(f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")
+        report(Violation.C2, f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")
 
     # Joint velocity and acceleration at the samples.
     qd = problem.dq_ds * motion.sdot[:, None]
@@ -305,13 +391,16 @@ def check_timing(
     ja_ratio = np.abs(qdd) / problem.joint_acceleration_max
     jv = float(np.max(jv_ratio))
     ja = float(np.max(ja_ratio))
-    for what, unit, values, limits, r in (
-        ("velocity", "deg/s", qd, problem.joint_velocity_max, jv_ratio),
-        ("acceleration", "deg/s^2", qdd, problem.joint_acceleration_max, ja_ratio),
+    for kind, what, unit, values, limits, r in (
+        (Violation.JOINT_VELOCITY, "velocity", "deg/s", qd, problem.joint_velocity_max,
+         jv_ratio),
+        (Violation.JOINT_ACCELERATION, "acceleration", "deg/s^2", qdd,
+         problem.joint_acceleration_max, ja_ratio),
     ):
         if float(np.max(r)) > 1 + rtol:
             i, j = np.unravel_index(int(np.argmax(r)), r.shape)
-            problems.append(
+            report(
+                kind,
                 f"joint {j + 1} {what} {np.rad2deg(abs(values[i, j])):.4g} {unit} exceeds its "
                 f"limit {np.rad2deg(limits[j]):.4g} {unit} ({r[i, j]:.4f} x) at "
                 f"s = {problem.s[i] / MM:.3f} mm (sample {i})"
@@ -321,12 +410,14 @@ def check_timing(
     # ill-conditioned, so these are not taken from the sample inversion).
     ends = trajectory.at(np.array([pp.x[0], pp.x[-1]]))
     start, end = float(ends.sdot[0]), float(ends.sdot[1])
-    for name, got, want in (("start", start, problem.v_start), ("end", end, problem.v_end)):
+    for kind, name, got, want in ((Violation.START_FEED, "start", start, problem.v_start),
+                                  (Violation.END_FEED, "end", end, problem.v_end)):
         if abs(got - want) > 1e-9 + rtol * abs(want):
-            problems.append(f"{name} feed {got / MM:.6g} mm/s differs from the requested "
-                            f"{want / MM:.6g} mm/s")
+            report(kind, f"{name} feed {got / MM:.6g} mm/s differs from the requested "
+                         f"{want / MM:.6g} mm/s")
     if abs(trajectory.length - problem.length) > 1e-9 + 1e-9 * problem.length:
-        problems.append(
+        report(
+            Violation.LENGTH,
             f"covers {trajectory.length / MM:.9g} mm of a {problem.length / MM:.9g} mm path"
         )
 
@@ -351,4 +442,5 @@ def check_timing(
         start_ramp=start_ramp,
         stop_ramp=stop_ramp,
         problems=tuple(problems),
+        violations=violations,
     )

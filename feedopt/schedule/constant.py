@@ -9,7 +9,11 @@ the law measures how far it exceeds the bound and says so in ``notes``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Literal
+
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from feedopt.errors import InputError
 from feedopt.schedule.problem import ScheduleProblem
@@ -21,7 +25,43 @@ from feedopt.schedule.quintic import (
     scurve_distance,
     scurve_times,
 )
-from feedopt.schedule.trajectory import Trajectory
+from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
+from feedopt.units import MM
+
+# Bisection steps when the cruise feed is lowered so that both ramps fit (exact to rounding).
+_CRUISE_BISECTION_STEPS = 100
+
+
+class ConstantOptions(BaseModel):
+    """Tunables of the ``constant`` law."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    ramp: Literal["quintic", "jerk"] = Field(
+        "quintic",
+        description="start/stop ramp: quintic (Eq. 3.22 with zero end accelerations, the "
+        "shortest smoothstep meeting the limits) or jerk (bang-zero-bang jerk S-curve, needs "
+        "finite tangential acceleration and jerk limits)",
+    )
+
+
+@dataclass(frozen=True)
+class ConstantStats(LawStats):
+    """What the ``constant`` law reports (``as_dict()``: its summary.json entry)."""
+
+    cruise_feed_mm_s: float
+    ramp: str
+    ramp_lengths_mm: tuple[float, float]
+    max_feed_ratio: float
+    #: the path was too short for the nominal feed: the cruise feed was lowered
+    cruise_lowered: bool = outcome(False)
+    #: sample where the feed is highest relative to v_max
+    worst_sample: int = outcome(0)
+
+    @property
+    def exceeds_bound(self) -> bool:
+        """The feed goes above v_max (expected: the baseline ignores the bound)."""
+        return self.max_feed_ratio > 1.0 + 1e-9
 
 
 def _ramp_lengths(v0: float, v: float, v1: float, problem: ScheduleProblem, ramp: str):
@@ -35,23 +75,8 @@ def _ramp_lengths(v0: float, v: float, v1: float, problem: ScheduleProblem, ramp
     )
 
 
-def plan_constant(problem: ScheduleProblem, *, ramp: str = "quintic") -> Trajectory:
-    """Nominal feed with C2 start/stop ramps.
-
-    Parameters
-    ----------
-    problem : ScheduleProblem
-        Uses ``nominal_feed``, ``v_start``, ``v_end``, ``accel_max``, ``jerk_max``, ``length``.
-    ramp : {"quintic", "jerk"}
-        ``quintic``: Eq. 3.22 with zero end accelerations and the shortest duration meeting
-        the limits (smoothstep velocity). ``jerk``: bang-zero-bang jerk S-curve (needs finite
-        ``accel_max`` and ``jerk_max``).
-
-    If the path is too short to reach the nominal feed, the cruise feed is lowered until the
-    two ramps fit (said in ``notes``).
-    """
-    if ramp not in ("quintic", "jerk"):
-        raise InputError(f"constant law: ramp must be 'quintic' or 'jerk', got {ramp!r}")
+def _check_inputs(problem: ScheduleProblem, ramp: str) -> None:
+    """Refuse limits the ramps cannot be planned with (InputError)."""
     limited = np.isfinite(problem.accel_max) or np.isfinite(problem.jerk_max)
     if ramp == "jerk" and not (np.isfinite(problem.accel_max) and np.isfinite(problem.jerk_max)):
         raise InputError("constant law: ramp='jerk' needs finite accel_max and jerk_max")
@@ -60,34 +85,39 @@ def plan_constant(problem: ScheduleProblem, *, ramp: str = "quintic") -> Traject
         raise InputError("constant law: ramps need a finite accel_max or jerk_max")
     if problem.nominal_feed <= 0:
         raise InputError(f"constant law: nominal_feed must be > 0, got {problem.nominal_feed}")
-    v0, v1, L = problem.v_start, problem.v_end, problem.length
-    notes: list[str] = []
 
+
+def _cruise_feed(problem: ScheduleProblem, ramp: str) -> tuple[float, bool]:
+    """The nominal feed, or the largest lower feed whose two ramps fit in the path.
+
+    Returns ``(feed [m/s], lowered)``.
+    """
+    v0, v1, L = problem.v_start, problem.v_end, problem.length
     v = problem.nominal_feed
-    if sum(_ramp_lengths(v0, v, v1, problem, ramp)) > L:
-        # Lower the cruise feed until both ramps fit (ramp length grows with the feed).
-        lo, hi = max(v0, v1), v
-        if sum(_ramp_lengths(v0, lo, v1, problem, ramp)) > L:
-            raise InputError(
-                f"constant law: the path ({L * 1e3:.3f} mm) is too short to change the feed "
-                f"from v_start={v0 * 1e3:.4g} to v_end={v1 * 1e3:.4g} mm/s within the limits"
-            )
-        for _ in range(100):
-            mid = 0.5 * (lo + hi)
-            if sum(_ramp_lengths(v0, mid, v1, problem, ramp)) > L:
-                hi = mid
-            else:
-                lo = mid
-        notes.append(
-            f"path too short to reach the nominal feed {v * 1e3:.4g} mm/s: cruise feed "
-            f"lowered to {lo * 1e3:.4g} mm/s"
+    if sum(_ramp_lengths(v0, v, v1, problem, ramp)) <= L:
+        return v, False
+    # Lower the cruise feed until both ramps fit (ramp length grows with the feed).
+    lo, hi = max(v0, v1), v
+    if sum(_ramp_lengths(v0, lo, v1, problem, ramp)) > L:
+        raise InputError(
+            f"constant law: the path ({L / MM:.3f} mm) is too short to change the feed "
+            f"from v_start={v0 / MM:.4g} to v_end={v1 / MM:.4g} mm/s within the limits"
         )
-        v = lo
-    h_up, h_dn = _ramp_lengths(v0, v, v1, problem, ramp)
+    for _ in range(_CRUISE_BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        if sum(_ramp_lengths(v0, mid, v1, problem, ramp)) > L:
+            hi = mid
+        else:
+            lo = mid
+    return lo, True
+
+
+def _timing(problem: ScheduleProblem, v: float, h_up: float, h_dn: float, ramp: str):
+    """s(t): ramp up to ``v``, cruise, ramp down (quintic pieces or jerk phases)."""
+    v0, v1, L = problem.v_start, problem.v_end, problem.length
     cruise = max(L - h_up - h_dn, 0.0)
     if cruise <= 1e-9 * L:  # no cruise left: drop it (fit_length absorbs the rest)
         cruise = 0.0
-
     if ramp == "quintic":
         t_up = float(quintic_ramp_duration(v0, v, problem.accel_max, problem.jerk_max))
         t_dn = float(quintic_ramp_duration(v, v1, problem.accel_max, problem.jerk_max))
@@ -111,8 +141,40 @@ def plan_constant(problem: ScheduleProblem, *, ramp: str = "quintic") -> Traject
         durations = [tj1, ta1, tj1, cruise / v, tj2, ta2, tj2]
         jerks = [g1 * J, 0.0, -g1 * J, 0.0, g2 * J, 0.0, -g2 * J]
         pp = ppoly_from_jerk_phases(np.array(durations), np.array(jerks), v0=v0)
+    return fit_length(pp, problem.length)
 
-    pp = fit_length(pp, problem.length)
+
+def plan_constant(problem: ScheduleProblem, options: ConstantOptions | None = None) -> Trajectory:
+    """Nominal feed with C2 start/stop ramps.
+
+    Parameters
+    ----------
+    problem : ScheduleProblem
+        Uses ``nominal_feed``, ``v_start``, ``v_end``, ``accel_max``, ``jerk_max``, ``length``.
+    options : ConstantOptions, optional
+        ``ramp``: ``quintic`` (Eq. 3.22 with zero end accelerations and the shortest duration
+        meeting the limits, smoothstep velocity) or ``jerk`` (bang-zero-bang jerk S-curve,
+        needs finite ``accel_max`` and ``jerk_max``). Default: :class:`ConstantOptions`.
+
+    Returns
+    -------
+    Trajectory
+        ``law="constant"``, ``continuity=2``, :class:`ConstantStats`. If the path is too
+        short to reach the nominal feed, the cruise feed is lowered until the two ramps fit
+        (``stats.cruise_lowered``, and said in ``notes``).
+    """
+    options = ConstantOptions() if options is None else options
+    ramp = options.ramp
+    _check_inputs(problem, ramp)
+    notes: list[str] = []
+    v, lowered = _cruise_feed(problem, ramp)
+    if lowered:
+        notes.append(
+            f"path too short to reach the nominal feed {problem.nominal_feed / MM:.4g} mm/s: "
+            f"cruise feed lowered to {v / MM:.4g} mm/s"
+        )
+    h_up, h_dn = _ramp_lengths(problem.v_start, v, problem.v_end, problem, ramp)
+    pp = _timing(problem, v, h_up, h_dn, ramp)
     traj = Trajectory(law="constant", timing=pp, continuity=2, notes=tuple(notes))
     # feed on the samples: exactly v while cruising, the exact inverse of s(t) on the ramps
     feed = np.full(problem.n, v)
@@ -120,16 +182,18 @@ def plan_constant(problem: ScheduleProblem, *, ramp: str = "quintic") -> Traject
     feed[ramps] = traj.feed_at(problem.s[ramps])
     ratio = feed / problem.v_max
     worst = int(np.argmax(ratio))
-    stats = {
-        "cruise_feed_mm_s": v * 1e3,
-        "ramp": ramp,
-        "ramp_lengths_mm": (h_up * 1e3, h_dn * 1e3),
-        "max_feed_ratio": float(ratio[worst]),
-    }
-    if ratio[worst] > 1.0 + 1e-9:
+    stats = ConstantStats(
+        cruise_feed_mm_s=v / MM,
+        ramp=ramp,
+        ramp_lengths_mm=(h_up / MM, h_dn / MM),
+        max_feed_ratio=float(ratio[worst]),
+        cruise_lowered=lowered,
+        worst_sample=worst,
+    )
+    if stats.exceeds_bound:
         notes.append(
             f"ignores the feed bound by design: the feed reaches {ratio[worst]:.4f} x v_max "
-            f"(at s = {problem.s[worst] * 1e3:.3f} mm, sample {worst}); the deflection limit "
+            f"(at s = {problem.s[worst] / MM:.3f} mm, sample {worst}); the deflection limit "
             f"is violated there"
         )
     return Trajectory(law="constant", timing=pp, continuity=2, notes=tuple(notes), stats=stats)

@@ -26,35 +26,164 @@ cones: c_k^2 <= b_k and d_k (c_k + c_{k+1}) >= 1, objective sum 2 ds_k d_k.
 The output s(t) is a quintic Hermite piece in t per grid interval through (s, sdot, sddot) at
 the gridpoints (C2), with a piece duration that is exact for constant-jerk motion. It is
 verified on the fine samples; if the smoothing overshoots the feed, jerk or acceleration
-limit, those limits are shrunk by the measured margin and the SOCP is solved again (reported
-in ``stats["resolves"]`` and in ``notes``). The solver grid is the samples, or, on long
-paths, an adaptive subset (dense where v_max varies, coarse where it is flat) capped at
-``max_gridpoints``, plus graded points near a rest end (between samples).
+limit (or reverses), those limits are shrunk by the measured margin and the SOCP is solved
+again: every attempt is a typed :class:`ConvexAttempt` whose :class:`Overshoot` flags decide
+the re-solve (``stats.attempts``, ``stats.resolves`` and ``notes``). The solver grid is the
+samples, or, on long paths, an adaptive subset (dense where v_max varies, coarse where it is
+flat) capped at ``ConvexOptions.max_gridpoints``, plus graded points near a rest end (between
+samples). The SOCP is solved in mm and s (``MM_PER_M``: b ~ 10 mm^2/s^2) for good
+conditioning.
 """
 
 from __future__ import annotations
 
+import enum
 import time
 import warnings
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+from scipy.interpolate import PPoly
 
 from feedopt.errors import InputError
-from feedopt.schedule.checks import check_timing
-from feedopt.schedule.problem import ScheduleProblem
-from feedopt.schedule.topp import (
-    SampledJointPath,
-    plan_topp,
-    quintic_hermite_coefficients,
-    sample_feed_bound,
+from feedopt.schedule.checks import (
+    Violation,
+    check_boundary_feeds,
+    check_positive_bound,
+    check_timing,
 )
-from feedopt.schedule.trajectory import Trajectory, ppoly_from_pieces
+from feedopt.schedule.polynomial import derivative_coefficients, horner, quintic_hermite_spline
+from feedopt.schedule.problem import ScheduleProblem
+from feedopt.schedule.topp import SampledJointPath, plan_topp, sample_feed_bound
+from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
+from feedopt.units import MM, MM_PER_M
 
-_MM = 1e3  # the SOCP is solved in mm and s (b ~ 10 mm^2/s^2) for good conditioning
+# Safety on the measured overshoot when a limit is shrunk for the next solve.
+_FEED_SHRINK_SAFETY = 1.0 - 1e-6
+_LIMIT_SHRINK_SAFETY = 0.999
+# Relative overshoot of the final attempt reported as a VIOLATION.
+_VIOLATION_RTOL = 1e-9
+
+
+class ConvexOptions(BaseModel):
+    """Tunables of the ``convex`` law (SOCP, Verscheure et al. 2009)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    max_gridpoints: int = Field(
+        3000, ge=2,
+        description="cap on the solver grid (adaptive: dense where v_max varies; every sample "
+        "when the path has fewer)")
+    rest_gridpoints: int = Field(
+        61, ge=2,
+        description="graded gridpoints (s ~ i^3) near an end at rest, where the node model "
+        "cannot describe a jerk-limited start; reserved out of max_gridpoints")
+    jerk_margin: float = Field(
+        0.02, ge=0.0, lt=1.0, allow_inf_nan=False,
+        description="relative margin on the jerk limit for the first solve (the quintic "
+        "smoothing may exceed the discrete jerk slightly)")
+    reach_margin: float = Field(
+        0.05, ge=0.0, allow_inf_nan=False,
+        description="relative margin on the jerk-limited reach feed from / to a rest end, used "
+        "as the feed in the jerk constraint there")
+    max_resolves: int = Field(
+        3, ge=0,
+        description="how many times to shrink the limits by the measured overshoot and solve "
+        "again")
+    reversal_jerk_scale: float = Field(
+        0.9, gt=0.0, lt=1.0, allow_inf_nan=False,
+        description="factor on the jerk limit of the next solve when the smoothed feed "
+        "reverses")
+    compare_topp: bool = Field(
+        True,
+        description="when no topp trajectory is given, run toppra after planning to report the "
+        "gap to it (its time is not planning time)")
+    solver_options: dict[str, float | int | bool | str] = Field(
+        default_factory=dict,
+        description="extra keyword arguments for cvxpy's Problem.solve with Clarabel (e.g. "
+        "tol_gap_rel)")
+
+
+class SocpStatus(enum.StrEnum):
+    """cvxpy's status of one SOCP solve (its string values)."""
+
+    OPTIMAL = "optimal"
+    OPTIMAL_INACCURATE = "optimal_inaccurate"
+    INFEASIBLE = "infeasible"
+    INFEASIBLE_INACCURATE = "infeasible_inaccurate"
+    UNBOUNDED = "unbounded"
+    UNBOUNDED_INACCURATE = "unbounded_inaccurate"
+    INFEASIBLE_OR_UNBOUNDED = "infeasible_or_unbounded"
+    USER_LIMIT = "user_limit"
+    SOLVER_ERROR = "solver_error"
+
+    @property
+    def solved(self) -> bool:
+        """A solution is available (optimal, possibly inaccurate)."""
+        return self in (SocpStatus.OPTIMAL, SocpStatus.OPTIMAL_INACCURATE)
+
+
+class Overshoot(enum.Flag):
+    """What the quintic smoothing of one SOCP solution overshot on the fine samples."""
+
+    NONE = 0
+    FEED = enum.auto()  #: sdot > scaled v_max on a sample
+    JERK = enum.auto()  #: exact max |sdddot| > jerk_max
+    ACCELERATION = enum.auto()  #: max |sddot| > accel_max
+    REVERSAL = enum.auto()  #: sdot < 0 somewhere (check_timing's Violation.REVERSAL)
+
+
+class _Scales(NamedTuple):
+    """Factors on the feed bound, jerk limit and acceleration limit of one solve."""
+
+    feed: float
+    jerk: float
+    accel: float
+
+
+@dataclass(frozen=True)
+class ConvexAttempt(LawStats):
+    """One SOCP solve and the check of its quintic smoothing (a row of ``stats.attempts``)."""
+
+    feed_ratio: float
+    max_accel: float
+    max_jerk: float
+    status: SocpStatus
+    feed_scale: float
+    jerk_scale: float
+    accel_scale: float
+    #: what this attempt overshot (empty: accepted)
+    overshoot: Overshoot = outcome(Overshoot.NONE)
+
+
+@dataclass(frozen=True)
+class ConvexStats(LawStats):
+    """What the ``convex`` law reports (``as_dict()``: its summary.json entry)."""
+
+    gridpoints: int
+    solver: str
+    status: SocpStatus
+    resolves: int
+    attempts: tuple[ConvexAttempt, ...]
+    solver_time_s: float
+    socp_time_s: float
+    feed_ratio: float
+    max_jerk_m_s3: float
+    max_accel_m_s2: float
+    lower_bound_s: float
+    planning_time_s: float
+    topp_time_s: float | None = None
+    topp_duration_s: float | None = None
+    gap_to_topp: float | None = None
+    #: limits the returned trajectory still violates after the last attempt
+    violations: Overshoot = outcome(Overshoot.NONE)
 
 
 def adaptive_grid(
-    problem: ScheduleProblem, v_sample: np.ndarray, max_gridpoints: int
+    problem: ScheduleProblem, v_sample: np.ndarray, max_gridpoints: int,
+    rest_gridpoints: int = 61,
 ) -> np.ndarray:
     """Arc lengths [m] of the solver grid (about ``max_gridpoints`` points or fewer).
 
@@ -64,7 +193,8 @@ def adaptive_grid(
     of the bound. Near a boundary at rest the grid is graded (s ~ i^3, the shape of a
     jerk-limited start) over the jerk-limited acceleration distance, with points between
     samples: the node model (sddot linear in s) cannot describe a start from rest, so the
-    pieces there must be short.
+    pieces there must be short (``rest_gridpoints`` points per rest end, reserved out of
+    ``max_gridpoints``).
     """
     n = problem.n
     s = problem.s
@@ -83,9 +213,10 @@ def adaptive_grid(
         measure = s / s[-1]
         if tv[-1] > 0:
             measure = 0.5 * measure + 0.5 * tv / tv[-1]
-        idx = np.searchsorted(measure, np.linspace(0.0, 1.0, max(max_gridpoints - 120, 2)))
+        reserve = 2 * (rest_gridpoints - 1)
+        idx = np.searchsorted(measure, np.linspace(0.0, 1.0, max(max_gridpoints - reserve, 2)))
         pts = [s[np.clip(idx, 0, n - 1)], s[[0, n - 1]]]
-    graded = zone * np.linspace(0.0, 1.0, 61) ** 3
+    graded = zone * np.linspace(0.0, 1.0, rest_gridpoints) ** 3
     if problem.v_start == 0:
         pts.append(graded)
     if problem.v_end == 0:
@@ -167,7 +298,10 @@ def _solve_socp(
     w: np.ndarray,
     solver_options: dict,
 ):
-    """Solve the SOCP in mm / s units; returns (b, a, status, solve time, setup time)."""
+    """Solve the SOCP in mm / s units; returns (b, a, status, solve time, setup time).
+
+    ``status`` is a :class:`SocpStatus`; ``b`` and ``a`` are None when cvxpy has no values.
+    """
     import cvxpy as cp
 
     t0 = time.perf_counter()
@@ -219,9 +353,10 @@ def _solve_socp(
     total = time.perf_counter() - t0
     stats = prob.solver_stats
     solve_time = float(stats.solve_time) if stats and stats.solve_time else float("nan")
+    status = SocpStatus._value2member_map_.get(prob.status, SocpStatus.SOLVER_ERROR)
     if b.value is None:
-        return None, None, prob.status, solve_time, total
-    return np.asarray(b.value), np.asarray(a.value), prob.status, solve_time, total
+        return None, None, status, solve_time, total
+    return np.asarray(b.value), np.asarray(a.value), status, solve_time, total
 
 
 def quintic_timing(s: np.ndarray, v: np.ndarray, a: np.ndarray):
@@ -244,210 +379,245 @@ def quintic_timing(s: np.ndarray, v: np.ndarray, a: np.ndarray):
     if np.any(~np.isfinite(dt)) or np.any(dt <= 0):
         k = int(np.argmax(~np.isfinite(dt) | (dt <= 0)))
         raise InputError(
-            f"the feed is zero on both ends of the grid interval at s = {s[k] * 1e3:.3f} mm "
+            f"the feed is zero on both ends of the grid interval at s = {s[k] / MM:.3f} mm "
             f"(gridpoint {k}): the bound or the limits stop the motion there"
         )
-    coeffs = quintic_hermite_coefficients(dt, s[:-1], v[:-1], a[:-1], s[1:], v[1:], a[1:])
     t = np.concatenate([[0.0], np.cumsum(dt)])
-    return ppoly_from_pieces(t, coeffs)
+    return PPoly(quintic_hermite_spline(dt, s, v, a), t)
 
 
-def _exact_jerk_max(pp) -> float:
-    """max |sdddot| over all quintic pieces (jerk is quadratic in t: ends and vertex)."""
-    c = pp.c
+def _exact_jerk_max(pp: PPoly) -> float:
+    """max |sdddot| over all quintic pieces (the jerk is quadratic in t: ends and vertex)."""
+    jerk = derivative_coefficients(pp.c, 3)  # (3, m): quadratic per piece
     h = np.diff(pp.x)
-    c5, c4, c3 = c[0], c[1], c[2]
-    jerk0 = 6 * c3
-    jerk1 = 60 * c5 * h**2 + 24 * c4 * h + 6 * c3
+    slope = derivative_coefficients(jerk)  # (2, m): its derivative
     with np.errstate(divide="ignore", invalid="ignore"):
-        tv = np.where(c5 != 0, -24 * c4 / (120 * c5), -1.0)
+        tv = np.where(slope[0] != 0, -slope[1] / slope[0], -1.0)
     inside = (tv > 0) & (tv < h)
-    jerkv = np.where(inside, 60 * c5 * tv**2 + 24 * c4 * tv + 6 * c3, 0.0)
-    return float(np.max(np.abs(np.concatenate([jerk0, jerk1, jerkv]))))
+    jerkv = np.where(inside, horner(jerk, tv), 0.0)
+    return float(np.max(np.abs(np.concatenate([jerk[-1], horner(jerk, h), jerkv]))))
 
 
-def plan_convex(
-    problem: ScheduleProblem,
-    *,
-    max_gridpoints: int = 3000,
-    jerk_margin: float = 0.02,
-    max_resolves: int = 3,
-    topp: Trajectory | None = None,
-    compare_topp: bool = True,
-    reach_margin: float = 0.05,
-    solver_options: dict | None = None,
-) -> Trajectory:
-    """Minimum-time jerk-limited C2 timing law (SOCP, cvxpy + Clarabel).
+@dataclass(frozen=True)
+class _Grid:
+    """The solver grid and everything on it that does not change between attempts."""
 
-    Parameters
-    ----------
-    problem : ScheduleProblem
-        Path samples, feed bound and limits. ``jerk_max`` must be finite.
-    max_gridpoints : int
-        Cap on the solver grid (adaptive; every sample when the path has fewer).
-    jerk_margin : float
-        Relative margin on the jerk limit for the first solve (the quintic smoothing may
-        exceed the discrete jerk slightly).
-    max_resolves : int
-        How many times to shrink the limits by the measured overshoot and solve again.
-    topp : Trajectory, optional
-        A ``plan_topp`` result for the same problem: ``stats["gap_to_topp"]`` is
-        ``duration / topp.duration - 1``.
-    compare_topp : bool
-        When ``topp`` is not given, run ``plan_topp`` after planning to report the gap (its
-        time is ``stats["topp_time_s"]``, not part of ``stats["planning_time_s"]``).
-    reach_margin : float
-        Relative margin on the jerk-limited reach feed from / to a rest end, used as the
-        feed w_k in the jerk constraint there (see :func:`jerk_limited_reach`).
-    solver_options : dict, optional
-        Extra keyword arguments for ``cvxpy.Problem.solve`` (e.g. tolerances).
+    s: np.ndarray  # gridpoints [m]
+    v_int: np.ndarray  # feed bound per grid interval [m/s]
+    v_node: np.ndarray  # feed bound per gridpoint [m/s]
+    q1: np.ndarray  # dq/ds at the gridpoints [rad/mm]
+    q2: np.ndarray  # d2q/ds2 at the gridpoints [rad/mm^2]
+    w_bound: np.ndarray  # feed w_k of each interval in the jerk constraint [m/s]
 
-    Returns
-    -------
-    Trajectory
-        ``law="convex"``, quintic pieces, ``continuity=2``.
-    """
-    t_start = time.perf_counter()
+
+def _check_inputs(problem: ScheduleProblem) -> np.ndarray:
+    """Refuse what the SOCP cannot solve; returns the per-sample feed bound [m/s]."""
     if not np.isfinite(problem.jerk_max) or problem.jerk_max <= 0:
         raise InputError(
             f"jerk_max = {problem.jerk_max} m/s^3: the convex law needs a finite positive jerk "
             "limit (use the topp law for an unlimited jerk)"
         )
     v_sample = sample_feed_bound(problem)
-    if np.any(~(v_sample > 0)):
-        k = int(np.argmax(~(v_sample > 0)))
-        raise InputError(
-            f"feed bound is {v_sample[k]} m/s at sample {k} (s = {problem.s[k] * 1e3:.3f} mm); "
-            "every sample needs a positive bound"
-        )
-    for name, v, k in (("v_start", problem.v_start, 0), ("v_end", problem.v_end, problem.n - 1)):
-        if v < 0 or v > v_sample[k]:
-            raise InputError(
-                f"{name} = {v * 1e3:.6g} mm/s is outside [0, {v_sample[k] * 1e3:.6g}] mm/s, "
-                f"the feed bound at sample {k}"
-            )
+    check_positive_bound("convex", problem, v_sample)
+    check_boundary_feeds("convex", problem, v_sample[0], v_sample[-1])
+    return v_sample
 
-    s_grid = adaptive_grid(problem, v_sample, max_gridpoints)
+
+def _grid(problem: ScheduleProblem, v_sample: np.ndarray, options: ConvexOptions) -> _Grid:
+    """Adaptive solver grid, its feed bounds, joint path derivatives and jerk feeds."""
+    s_grid = adaptive_grid(problem, v_sample, options.max_gridpoints, options.rest_gridpoints)
     v_int, v_node = grid_bounds_at(problem.s, v_sample, s_grid)
-    s_mm = s_grid * _MM
     path = SampledJointPath(problem)
-    q1 = path(s_grid, 1) / _MM
-    q2 = path(s_grid, 2) / _MM**2
-    qdd_max = np.asarray(problem.joint_acceleration_max, dtype=float)
-    a_lim = float(problem.accel_max)
-    j_lim = float(problem.jerk_max)
-
     # feed bound w_k of each interval in the jerk constraint: v_max, and near a rest end the
     # jerk-limited reach (v_max alone would make the start from rest very slow)
-    w_bound = np.minimum(v_int, (1 + reach_margin) * _rest_reach_feed(problem, s_grid))
+    w_bound = np.minimum(v_int, (1 + options.reach_margin) * _rest_reach_feed(problem, s_grid))
+    return _Grid(s=s_grid, v_int=v_int, v_node=v_node, q1=path(s_grid, 1) / MM_PER_M,
+                 q2=path(s_grid, 2) / MM_PER_M**2, w_bound=w_bound)
 
-    feed_scale, accel_scale, jerk_scale = 1.0, 1.0, 1.0 - jerk_margin
-    history = []
-    notes: list[str] = []
-    traj = None
-    solve_total = 0.0
-    socp_total = 0.0
-    for attempt in range(max_resolves + 1):
-        b_node = (v_node * feed_scale * _MM) ** 2
-        b_int = (v_int * feed_scale * _MM) ** 2
-        b_start = min((problem.v_start * _MM) ** 2, b_node[0])
-        b_end = min((problem.v_end * _MM) ** 2, b_node[-1])
-        b, a, status, solve_time, total = _solve_socp(
-            s_mm, b_node, b_int, q1, q2, qdd_max,
-            a_lim * accel_scale * _MM, j_lim * jerk_scale * _MM,
-            b_start, b_end, w_bound * feed_scale * _MM, solver_options or {},
+
+def _attempt(problem: ScheduleProblem, grid: _Grid, scales: _Scales, options: ConvexOptions):
+    """Solve the SOCP with scaled limits, smooth it into quintics and check the result.
+
+    Returns ``(timing, attempt, solver time [s], SOCP time incl. setup [s])``; raises
+    InputError when the SOCP has no solution.
+    """
+    a_lim, j_lim = float(problem.accel_max), float(problem.jerk_max)
+    b_node = (grid.v_node * scales.feed * MM_PER_M) ** 2
+    b_int = (grid.v_int * scales.feed * MM_PER_M) ** 2
+    b_start = min((problem.v_start * MM_PER_M) ** 2, b_node[0])
+    b_end = min((problem.v_end * MM_PER_M) ** 2, b_node[-1])
+    b, a, status, solve_time, total = _solve_socp(
+        grid.s * MM_PER_M, b_node, b_int, grid.q1, grid.q2,
+        np.asarray(problem.joint_acceleration_max, dtype=float),
+        a_lim * scales.accel * MM_PER_M, j_lim * scales.jerk * MM_PER_M,
+        b_start, b_end, grid.w_bound * scales.feed * MM_PER_M, options.solver_options,
+    )
+    if b is None or not status.solved:
+        raise InputError(
+            f"the convex SOCP is {status}: the boundary feeds, the feed bound and the "
+            "acceleration / jerk limits are inconsistent (try the topp law to see which)"
         )
+    b = np.clip(b, 0.0, b_node)
+    b[0], b[-1] = b_start, b_end
+    v = np.sqrt(b) / MM_PER_M
+    acc = a / MM_PER_M
+    acc[0] = acc[-1] = 0.0
+    timing = quintic_timing(grid.s, v, acc)
+    chk = check_timing(Trajectory(law="convex", timing=timing, continuity=2), problem)
+    jerk = _exact_jerk_max(timing)
+    overshoot = Overshoot.NONE
+    if chk.feed_ratio > 1.0:
+        overshoot |= Overshoot.FEED
+    if jerk > j_lim:
+        overshoot |= Overshoot.JERK
+    if chk.max_accel > a_lim:
+        overshoot |= Overshoot.ACCELERATION
+    if Violation.REVERSAL in chk.violations:
+        overshoot |= Overshoot.REVERSAL
+    attempt = ConvexAttempt(
+        feed_ratio=chk.feed_ratio, max_accel=chk.max_accel, max_jerk=jerk, status=status,
+        feed_scale=scales.feed, jerk_scale=scales.jerk, accel_scale=scales.accel,
+        overshoot=overshoot,
+    )
+    return timing, attempt, solve_time, total
+
+
+def _shrunk(scales: _Scales, attempt: ConvexAttempt, problem: ScheduleProblem,
+            options: ConvexOptions) -> _Scales:
+    """The scales of the next solve: each overshot limit shrunk by the measured overshoot
+    (plus a little); a reversal shrinks the jerk limit by ``reversal_jerk_scale``."""
+    feed, jerk, accel = scales
+    over = attempt.overshoot
+    if Overshoot.FEED in over:
+        feed *= _FEED_SHRINK_SAFETY / attempt.feed_ratio
+    if Overshoot.JERK in over:
+        jerk *= _LIMIT_SHRINK_SAFETY * float(problem.jerk_max) / attempt.max_jerk
+    if Overshoot.ACCELERATION in over:
+        accel *= _LIMIT_SHRINK_SAFETY * float(problem.accel_max) / attempt.max_accel
+    if Overshoot.REVERSAL in over:
+        jerk *= options.reversal_jerk_scale
+    return _Scales(feed, jerk, accel)
+
+
+def _solve_until_within_limits(problem: ScheduleProblem, grid: _Grid, options: ConvexOptions):
+    """Solve, and re-solve with shrunk limits while the smoothing overshoots (at most
+    ``max_resolves`` times). Returns ``(timing, attempts, solver time, SOCP time)``."""
+    scales = _Scales(1.0, 1.0 - options.jerk_margin, 1.0)
+    attempts: list[ConvexAttempt] = []
+    solve_total = socp_total = 0.0
+    while True:
+        timing, attempt, solve_time, total = _attempt(problem, grid, scales, options)
         solve_total += solve_time
         socp_total += total
-        if b is None or status not in ("optimal", "optimal_inaccurate"):
-            raise InputError(
-                f"the convex SOCP is {status}: the boundary feeds, the feed bound and the "
-                "acceleration / jerk limits are inconsistent (try the topp law to see which)"
-            )
-        b = np.clip(b, 0.0, b_node)
-        b[0], b[-1] = b_start, b_end
-        v = np.sqrt(b) / _MM
-        acc = a / _MM
-        acc[0] = acc[-1] = 0.0
-        timing = quintic_timing(s_grid, v, acc)
-        traj = Trajectory(law="convex", timing=timing, continuity=2)
-        chk = check_timing(traj, problem)
-        jerk = _exact_jerk_max(timing)
-        reversing = any("negative" in p for p in chk.problems)
-        history.append(
-            {
-                "feed_ratio": chk.feed_ratio,
-                "max_accel": chk.max_accel,
-                "max_jerk": jerk,
-                "status": status,
-                "feed_scale": feed_scale,
-                "jerk_scale": jerk_scale,
-                "accel_scale": accel_scale,
-            }
-        )
-        over_feed = chk.feed_ratio > 1.0
-        over_jerk = jerk > j_lim
-        over_acc = chk.max_accel > a_lim
-        if not (over_feed or over_jerk or over_acc or reversing):
-            break
-        if attempt == max_resolves:
-            break
-        # shrink by the measured overshoot (plus a little) and solve again
-        if over_feed:
-            feed_scale *= (1.0 - 1e-6) / chk.feed_ratio
-        if over_jerk:
-            jerk_scale *= 0.999 * j_lim / jerk
-        if over_acc:
-            accel_scale *= 0.999 * a_lim / chk.max_accel
-        if reversing:
-            jerk_scale *= 0.9
+        attempts.append(attempt)
+        if not attempt.overshoot or len(attempts) > options.max_resolves:
+            return timing, tuple(attempts), solve_total, socp_total
+        scales = _shrunk(scales, attempt, problem, options)
 
-    last = history[-1]
-    resolves = len(history) - 1
-    notes.append(
-        f"SOCP (Verscheure et al. 2009) on {s_grid.size} gridpoints, solved by Clarabel; s(t) is "
+
+def _violations(last: ConvexAttempt, problem: ScheduleProblem) -> Overshoot:
+    """Limits the final trajectory still overshoots (beyond :data:`_VIOLATION_RTOL`)."""
+    out = Overshoot.NONE
+    if last.feed_ratio > 1 + _VIOLATION_RTOL:
+        out |= Overshoot.FEED
+    if last.max_jerk > float(problem.jerk_max) * (1 + _VIOLATION_RTOL):
+        out |= Overshoot.JERK
+    if last.max_accel > float(problem.accel_max) * (1 + _VIOLATION_RTOL):
+        out |= Overshoot.ACCELERATION
+    return out | (last.overshoot & Overshoot.REVERSAL)
+
+
+def _notes(gridpoints: int, attempts: tuple[ConvexAttempt, ...], violations: Overshoot,
+           problem: ScheduleProblem) -> list[str]:
+    """What the law tells the user: formulation, re-solves and remaining violations."""
+    last = attempts[-1]
+    resolves = len(attempts) - 1
+    j_lim, a_lim = float(problem.jerk_max), float(problem.accel_max)
+    notes = [
+        f"SOCP (Verscheure et al. 2009) on {gridpoints} gridpoints, solved by Clarabel; s(t) is "
         "quintic Hermite in t through (s, sdot, sddot) at gridpoints: C2, jerk-limited."
-    )
+    ]
     if resolves:
         notes.append(
             f"the quintic smoothing overshot a limit; re-solved {resolves} time(s) with the feed "
-            f"bound x{feed_scale:.6f}, jerk limit x{jerk_scale:.4f}, "
-            f"acceleration limit x{accel_scale:.4f}"
+            f"bound x{last.feed_scale:.6f}, jerk limit x{last.jerk_scale:.4f}, "
+            f"acceleration limit x{last.accel_scale:.4f}"
         )
-    if last["feed_ratio"] > 1 + 1e-9:
+    if Overshoot.FEED in violations:
         notes.append(
-            f"VIOLATION: feed reaches {last['feed_ratio']:.6f} of v_max on the fine samples"
+            f"VIOLATION: feed reaches {last.feed_ratio:.6f} of v_max on the fine samples"
         )
-    if last["max_jerk"] > j_lim * (1 + 1e-9):
+    if Overshoot.JERK in violations:
         notes.append(
-            f"VIOLATION: jerk reaches {last['max_jerk']:.6g} m/s^3 > limit {j_lim:.6g} m/s^3"
+            f"VIOLATION: jerk reaches {last.max_jerk:.6g} m/s^3 > limit {j_lim:.6g} m/s^3"
         )
-    if last["max_accel"] > a_lim * (1 + 1e-9):
+    if Overshoot.ACCELERATION in violations:
         notes.append(
-            f"VIOLATION: acceleration reaches {last['max_accel']:.6g} m/s^2 > {a_lim:.6g} m/s^2"
+            f"VIOLATION: acceleration reaches {last.max_accel:.6g} m/s^2 > {a_lim:.6g} m/s^2"
         )
+    if Overshoot.REVERSAL in violations:
+        notes.append("VIOLATION: the smoothed feed becomes negative (the tool would reverse)")
+    return notes
 
-    stats = {
-        "gridpoints": int(s_grid.size),
-        "solver": "cvxpy + Clarabel",
-        "status": last["status"],
-        "resolves": resolves,
-        "attempts": history,
-        "solver_time_s": solve_total,
-        "socp_time_s": socp_total,
-        "feed_ratio": last["feed_ratio"],
-        "max_jerk_m_s3": last["max_jerk"],
-        "max_accel_m_s2": last["max_accel"],
-        "lower_bound_s": problem.lower_bound_time(),
-    }
-    stats["planning_time_s"] = time.perf_counter() - t_start
-    if topp is None and compare_topp:
+
+def plan_convex(
+    problem: ScheduleProblem,
+    options: ConvexOptions | None = None,
+    *,
+    topp: Trajectory | None = None,
+) -> Trajectory:
+    """Minimum-time jerk-limited C2 timing law (SOCP of Verscheure et al. 2009, cvxpy +
+    Clarabel; see the module docstring).
+
+    Parameters
+    ----------
+    problem : ScheduleProblem
+        Path samples, feed bound and limits. ``jerk_max`` must be finite.
+    options : ConvexOptions, optional
+        Grid, margins, re-solves and solver settings (default: :class:`ConvexOptions`).
+    topp : Trajectory, optional
+        A ``plan_topp`` result for the same problem: ``stats.gap_to_topp`` is
+        ``duration / topp.duration - 1``. Without it and with ``options.compare_topp``,
+        toppra is run after planning (``stats.topp_time_s``, not part of
+        ``stats.planning_time_s``).
+
+    Returns
+    -------
+    Trajectory
+        ``law="convex"``, quintic pieces, ``continuity=2``, :class:`ConvexStats`.
+    """
+    options = ConvexOptions() if options is None else options
+    t_start = time.perf_counter()
+    v_sample = _check_inputs(problem)
+    grid = _grid(problem, v_sample, options)
+    timing, attempts, solve_total, socp_total = _solve_until_within_limits(
+        problem, grid, options)
+    last = attempts[-1]
+    violations = _violations(last, problem)
+    notes = _notes(grid.s.size, attempts, violations, problem)
+    planning_time = time.perf_counter() - t_start
+    topp_time = None
+    if topp is None and options.compare_topp:
         t0 = time.perf_counter()
         topp = plan_topp(problem)
-        stats["topp_time_s"] = time.perf_counter() - t0
-    if topp is not None:
-        stats["topp_duration_s"] = topp.duration
-        stats["gap_to_topp"] = traj.duration / topp.duration - 1.0
-    return Trajectory(
-        law="convex", timing=traj.timing, continuity=2, notes=tuple(notes), stats=stats
+        topp_time = time.perf_counter() - t0
+    duration = float(timing.x[-1] - timing.x[0])
+    stats = ConvexStats(
+        gridpoints=int(grid.s.size),
+        solver="cvxpy + Clarabel",
+        status=last.status,
+        resolves=len(attempts) - 1,
+        attempts=attempts,
+        solver_time_s=solve_total,
+        socp_time_s=socp_total,
+        feed_ratio=last.feed_ratio,
+        max_jerk_m_s3=last.max_jerk,
+        max_accel_m_s2=last.max_accel,
+        lower_bound_s=problem.lower_bound_time(),
+        planning_time_s=planning_time,
+        topp_time_s=topp_time,
+        topp_duration_s=None if topp is None else topp.duration,
+        gap_to_topp=None if topp is None else duration / topp.duration - 1.0,
+        violations=violations,
     )
+    return Trajectory(law="convex", timing=timing, continuity=2, notes=tuple(notes), stats=stats)

@@ -87,7 +87,8 @@ class DeflectionModel:
         )
         return split, inverse.ravel()
 
-    def _engagement(self, sl: slice) -> Engagement:
+    def engagement_slice(self, sl: slice) -> Engagement:
+        """The engagement of samples ``sl``."""
         e = self.engagement
         return Engagement(entry=e.entry[sl], exit=e.exit[sl], axial_depth=e.axial_depth[sl])
 
@@ -103,7 +104,7 @@ class DeflectionModel:
 
     def at_angles(self, sl: slice, angles: np.ndarray):
         """``a``, ``b`` of samples ``sl`` at per-sample rotation angles (k, j)."""
-        split = milling_forces_at(self.tool, self.coefficients, self._engagement(sl), angles,
+        split = milling_forces_at(self.tool, self.coefficients, self.engagement_slice(sl), angles,
                                   axial_slices=self.axial_slices)
         return self._project(sl, split.cutting, split.edge)
 
@@ -120,7 +121,7 @@ class DeflectionModel:
             idx = np.arange(sl.start, sl.stop)
             split, row = self.forces(idx)
             a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])
-            crit = critical_angles(self.tool, self._engagement(sl), self.axial_slices)
+            crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
             a_crit, b_crit = self.at_angles(sl, crit)
             grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
             yield (sl, np.concatenate([grid, crit], axis=1),

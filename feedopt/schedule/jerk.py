@@ -22,18 +22,47 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 import ruckig
+from pydantic import BaseModel, ConfigDict, Field
 
 from feedopt.errors import InputError
+from feedopt.schedule.checks import check_boundary_feeds, check_positive_bound
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.quintic import fit_length, ppoly_from_jerk_phases
-from feedopt.schedule.trajectory import Trajectory
+from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
+from feedopt.units import MM
 
-# Relative safety applied to caps and to the distances of the junction passes, so ruckig is
-# never asked for a motion exactly at the edge of feasibility.
-_MARGIN = 1e-9
+
+class JerkOptions(BaseModel):
+    """Tunables of the ``jerk`` law (ruckig sections)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    tolerance: float = Field(
+        0.005, gt=0.0, lt=0.5, allow_inf_nan=False,
+        description="largest relative variation of v_max inside one constant-cap section (the "
+        "time lost to the staircase is below it)")
+    margin: float = Field(
+        1e-9, ge=0.0, lt=1e-3, allow_inf_nan=False,
+        description="relative safety applied to the section caps and to the distances of the "
+        "junction passes, so ruckig is never asked for a motion at the edge of feasibility")
+
+
+@dataclass(frozen=True)
+class JerkStats(LawStats):
+    """What the ``jerk`` law reports (``as_dict()``: its summary.json entry)."""
+
+    n_sections: int
+    tolerance: float
+    time_sections_passes_s: float
+    time_ruckig_s: float
+    time_assemble_s: float
+    length_error_m: float
+    #: junction feeds the backward / forward passes lowered below both neighbouring caps
+    junctions_lowered: int = outcome(0)
 
 
 def _sections(v: np.ndarray, tolerance: float) -> np.ndarray:
@@ -85,62 +114,49 @@ def _reach(v_end: float, length: float, A: float, J: float) -> float:
     return v_end + dv
 
 
-def plan_jerk(
-    problem: ScheduleProblem,
-    *,
-    tolerance: float = 0.005,
-) -> Trajectory:
-    """Jerk-limited timing law under v_max(s) with ruckig (see the module docstring).
-
-    Parameters
-    ----------
-    problem : ScheduleProblem
-        Needs finite ``accel_max`` and ``jerk_max``. Joint acceleration limits are not
-        imposed (only what v_max already contains); the checks report them.
-    tolerance : float
-        Largest relative variation of v_max inside one constant-cap section (time lost to
-        the staircase is below it).
-    """
+def _check_inputs(problem: ScheduleProblem) -> tuple[float, float]:
+    """Refuse limits and bounds ruckig cannot plan with; returns ``(accel_max, jerk_max)``."""
     A, J = float(problem.accel_max), float(problem.jerk_max)
     if not (np.isfinite(A) and np.isfinite(J) and A > 0 and J > 0):
         raise InputError(
             f"jerk law: needs finite positive accel_max and jerk_max (got {A}, {J})"
         )
-    if not 0 < tolerance < 0.5:
-        raise InputError(f"jerk law: tolerance must be in (0, 0.5), got {tolerance}")
-    s, v = problem.s, problem.v_max
-    if np.any(v <= 0):
-        i = int(np.argmin(v))
-        raise InputError(f"jerk law: v_max must be > 0 (sample {i}: {v[i]})")
-    t_start = time.perf_counter()
+    check_positive_bound("jerk", problem, problem.v_max)
+    return A, J
 
+
+def _section_caps(v: np.ndarray, tolerance: float, margin: float):
+    """Sections (:func:`_sections`), the minimum of v_max over each (both end samples
+    included) and the cap ruckig gets, ``(1 - margin)`` of it."""
     b = _sections(v, tolerance)
-    K = b.size - 1
-    cap = np.minimum.reduceat(v, b[:-1])
+    low = np.minimum.reduceat(v, b[:-1])
     # reduceat covers [b_k, b_k+1); include the closing sample of each section
-    cap = np.minimum(cap, v[b[1:]]) * (1.0 - _MARGIN)
-    L = np.diff(s[b])
+    low = np.minimum(low, v[b[1:]])
+    return b, low, low * (1.0 - margin)
 
+
+def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A: float,
+                    J: float, margin: float) -> list[float]:
+    """Feeds at the section junctions (acceleration 0 there).
+
+    At most both neighbouring caps; then a backward pass (every section can brake to the
+    next junction feed within ``(1 - margin)`` of its length) and a forward pass (every
+    section can reach it), with the exact inverse :func:`_reach` of the S-curve distance.
+    """
+    K = cap.size
     vj = np.empty(K + 1)
     vj[1:-1] = np.minimum(cap[:-1], cap[1:])
-    vj[0], vj[-1] = problem.v_start, problem.v_end
-    for name, val, c in (("v_start", problem.v_start, cap[0]), ("v_end", problem.v_end, cap[-1])):
-        if val > c / (1.0 - _MARGIN) * (1 + 1e-12):
-            raise InputError(
-                f"jerk law: {name} = {val * 1e3:.4g} mm/s exceeds the feed bound "
-                f"{c * 1e3:.4g} mm/s at that end of the path"
-            )
-    vj[0] = min(vj[0], cap[0])
-    vj[-1] = min(vj[-1], cap[-1])
-    Ls = (L * (1.0 - _MARGIN)).tolist()
+    vj[0] = min(problem.v_start, cap[0])
+    vj[-1] = min(problem.v_end, cap[-1])
+    Ls = (L * (1.0 - margin)).tolist()
     vl = vj.tolist()
     for k in range(K - 1, -1, -1):  # backward: section k can brake to vj[k+1]
         r = _reach(vl[k + 1], Ls[k], A, J)
         if r < vl[k]:
             if k == 0:
                 raise InputError(
-                    f"jerk law: cannot brake from v_start = {vl[0] * 1e3:.4g} mm/s to "
-                    f"{vl[1] * 1e3:.4g} mm/s within the first {Ls[0] * 1e3:.4g} mm"
+                    f"jerk law: cannot brake from v_start = {vl[0] / MM:.4g} mm/s to "
+                    f"{vl[1] / MM:.4g} mm/s within the first {Ls[0] / MM:.4g} mm"
                 )
             vl[k] = r
     for k in range(K):  # forward: section k can reach vj[k+1]
@@ -148,12 +164,19 @@ def plan_jerk(
         if r < vl[k + 1]:
             if k == K - 1:
                 raise InputError(
-                    f"jerk law: cannot reach v_end = {vl[-1] * 1e3:.4g} mm/s within the "
-                    f"last {Ls[-1] * 1e3:.4g} mm"
+                    f"jerk law: cannot reach v_end = {vl[-1] / MM:.4g} mm/s within the "
+                    f"last {Ls[-1] / MM:.4g} mm"
                 )
             vl[k + 1] = r
-    t_passes = time.perf_counter()
+    return vl
 
+
+def _ruckig_phases(s_from: np.ndarray, s_to: np.ndarray, vl: list[float], cap: np.ndarray,
+                   A: float, J: float) -> tuple[np.ndarray, np.ndarray]:
+    """One ruckig call per section, from ``(0, vl[k], 0)`` to ``(L_k, vl[k+1], 0)`` under
+    ``cap[k]``; returns the ``(K, 7)`` durations and jerks of the constant-jerk phases."""
+    L = s_to - s_from
+    K = L.size
     otg = ruckig.Ruckig(1)
     traj = ruckig.Trajectory(1)
     inp = ruckig.InputParameter(1)
@@ -174,15 +197,45 @@ def plan_jerk(
         res = otg.calculate(inp, traj)
         if res != ruckig.Result.Working:
             raise RuntimeError(
-                f"jerk law: ruckig returned {res} on section {k} (s = {s[b[k]] * 1e3:.4f}-"
-                f"{s[b[k + 1]] * 1e3:.4f} mm, v {vl[k]:.6g} -> {vl[k + 1]:.6g} m/s, cap "
-                f"{caps[k]:.6g} m/s)"
+                f"jerk law: ruckig returned {res} on section {k} (s = {s_from[k] / MM:.4f}-"
+                f"{s_to[k] / MM:.4f} mm, v {vl[k] / MM:.6g} -> {vl[k + 1] / MM:.6g} mm/s, "
+                f"cap {caps[k] / MM:.6g} mm/s)"
             )
         prof = traj.profiles[0][0]
         if prof.brake.duration > 0 or prof.accel.duration > 0:
             raise RuntimeError(f"jerk law: ruckig added a brake profile on section {k}")
         durations[k] = prof.t
         jerks[k] = prof.j
+    return durations, jerks
+
+
+def plan_jerk(problem: ScheduleProblem, options: JerkOptions | None = None) -> Trajectory:
+    """Jerk-limited timing law under v_max(s) with ruckig (see the module docstring).
+
+    Parameters
+    ----------
+    problem : ScheduleProblem
+        Needs finite ``accel_max`` and ``jerk_max``. Joint acceleration limits are not
+        imposed (only what v_max already contains); the checks report them.
+    options : JerkOptions, optional
+        Section tolerance and safety margin (default: :class:`JerkOptions`).
+
+    Returns
+    -------
+    Trajectory
+        ``law="jerk"``, piecewise cubic, ``continuity=2``, :class:`JerkStats`.
+    """
+    options = JerkOptions() if options is None else options
+    A, J = _check_inputs(problem)
+    s, v = problem.s, problem.v_max
+    t_start = time.perf_counter()
+
+    b, low, cap = _section_caps(v, options.tolerance, options.margin)
+    check_boundary_feeds("jerk", problem, low[0], low[-1])
+    L = np.diff(s[b])
+    vl = _junction_feeds(problem, cap, L, A, J, options.margin)
+    t_passes = time.perf_counter()
+    durations, jerks = _ruckig_phases(s[b[:-1]], s[b[1:]], vl, cap, A, J)
     t_ruckig = time.perf_counter()
 
     pp = ppoly_from_jerk_phases(durations.ravel(), jerks.ravel(), v0=vl[0])
@@ -191,12 +244,14 @@ def plan_jerk(
     pp = fit_length(pp, problem.length)
     if abs(end_err) > 1e-9 * max(1.0, problem.length):
         notes.append(f"integrated length differs from the path by {end_err:.3g} m")
-    stats = {
-        "n_sections": int(K),
-        "tolerance": tolerance,
-        "time_sections_passes_s": t_passes - t_start,
-        "time_ruckig_s": t_ruckig - t_passes,
-        "time_assemble_s": time.perf_counter() - t_ruckig,
-        "length_error_m": end_err,
-    }
+    junction_cap = np.minimum(cap[:-1], cap[1:])
+    stats = JerkStats(
+        n_sections=int(cap.size),
+        tolerance=options.tolerance,
+        time_sections_passes_s=t_passes - t_start,
+        time_ruckig_s=t_ruckig - t_passes,
+        time_assemble_s=time.perf_counter() - t_ruckig,
+        length_error_m=end_err,
+        junctions_lowered=int(np.sum(np.asarray(vl[1:-1]) < junction_cap)),
+    )
     return Trajectory(law="jerk", timing=pp, continuity=2, notes=tuple(notes), stats=stats)

@@ -1,34 +1,133 @@
-"""Registry of the timing laws: name -> ``plan_<law>(problem) -> Trajectory``."""
+"""The registry of timing laws: the one place a new law is registered.
+
+A law is a module ``feedopt/schedule/<law>.py`` with a function ``plan_<law>(problem,
+options=None, ...) -> Trajectory`` and a pydantic options model; :data:`LAWS` maps its name to
+a :class:`LawSpec` that says what it promises (continuity, whether it is a baseline that
+ignores the deflection bound), what it gets (native controller program or only the RSI CSV)
+and how it is drawn. The scenario's allowed law names and options, the CLI's ``--laws``
+choices, verification's baseline rule and the report's colours all come from here.
+
+Modules are imported when a law is first planned (toppra and cvxpy are slow to import).
+"""
 
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import BaseModel
 
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
 
-LAW_MODULES = {
-    "constant": "feedopt.schedule.constant",
-    "thesis": "feedopt.schedule.thesis",
-    "topp": "feedopt.schedule.topp",
-    "convex": "feedopt.schedule.convex",
-    "jerk": "feedopt.schedule.jerk",
-}
+
+@dataclass(frozen=True)
+class LawSpec:
+    """What the rest of feedopt needs to know about a timing law.
+
+    Attributes
+    ----------
+    name : str
+        Name in scenarios (``schedule.laws``), on the command line and in output files.
+    module : str
+        Module holding ``plan_<name>`` (``plan``) and the options model (``options``).
+    continuity : int
+        Order of parametric continuity of s(t) the law promises (2: C2, jerk bounded).
+    baseline : bool
+        True for a reference law that ignores the deflection bound by design (the thesis's
+        constant feed): its exceedance is reported, not a failure.
+    native_program : bool
+        The law's feeds are also exported as a native controller program (KRL), for the
+        thesis's native-controller comparison (section 3.7).
+    colour : str
+        Matplotlib colour of the law in every plot.
+    description : str
+        One line for ``feedopt validate --schema`` and ``--help``.
+    order : int
+        Planning order (lower first): ``topp`` runs before ``convex``, which reports its gap
+        to toppra from the context.
+    plan, options : str
+        Attribute names of the planning function and options model in ``module``.
+    uses_context : tuple of str
+        Names of earlier laws' trajectories the plan function accepts as keyword arguments.
+    """
+
+    name: str
+    module: str
+    continuity: int
+    baseline: bool = False
+    native_program: bool = False
+    colour: str = "tab:gray"
+    description: str = ""
+    order: int = 10
+    plan: str = ""
+    options: str = ""
+    uses_context: tuple[str, ...] = field(default=())
+
+    def _module(self) -> Any:
+        return importlib.import_module(self.module)
+
+    def plan_function(self) -> Callable[..., Trajectory]:
+        return getattr(self._module(), self.plan or f"plan_{self.name}")
+
+    def options_model(self) -> type[BaseModel]:
+        return getattr(self._module(), self.options or f"{self.name.capitalize()}Options")
 
 
-def plan_law(name: str, problem: ScheduleProblem, context: dict | None = None) -> Trajectory:
+LAWS: dict[str, LawSpec] = {}
+
+
+def register_law(spec: LawSpec) -> LawSpec:
+    """Add ``spec`` to :data:`LAWS` (ValueError for a name already registered)."""
+    if spec.name in LAWS:
+        raise ValueError(f"timing law {spec.name!r} is already registered")
+    LAWS[spec.name] = spec
+    return spec
+
+
+def law_names() -> tuple[str, ...]:
+    """Registered law names, in registration order."""
+    return tuple(LAWS)
+
+
+def planning_order(names: list[str]) -> list[str]:
+    """``names`` sorted by :attr:`LawSpec.order` (stable)."""
+    return sorted(names, key=lambda n: LAWS[n].order)
+
+
+def plan_law(name: str, problem: ScheduleProblem, context: dict[str, Trajectory] | None = None,
+             options: BaseModel | None = None) -> Trajectory:
     """Plan ``problem`` with the law ``name``.
 
-    ``context`` carries results of laws run before: with ``context["topp"]`` (a topp
-    Trajectory) the convex law reports its optimality gap to it without re-running toppra;
-    without it, convex runs toppra itself for the gap (outside its own planning time).
+    ``context`` holds the trajectories of laws planned before (``{name: Trajectory}``); a law
+    gets those it declares in :attr:`LawSpec.uses_context` (convex reports its optimality gap
+    to ``topp`` without re-running toppra). The new trajectory is added to ``context``.
     """
-    module = importlib.import_module(LAW_MODULES[name])
-    plan = getattr(module, f"plan_{name}")
+    spec = LAWS[name]
     context = {} if context is None else context
-    if name == "convex":
-        return plan(problem, topp=context.get("topp"))
-    trajectory: Trajectory = plan(problem)
-    if name == "topp":
-        context["topp"] = trajectory
+    extra = {k: context.get(k) for k in spec.uses_context}
+    trajectory: Trajectory = spec.plan_function()(problem, options=options, **extra)
+    context[name] = trajectory
     return trajectory
+
+
+for _spec in (
+    LawSpec("constant", "feedopt.schedule.constant", continuity=2, baseline=True,
+            native_program=True, colour="0.35", order=1,
+            description="the thesis baseline: the nominal feed everywhere, ignoring the limit"),
+    LawSpec("thesis", "feedopt.schedule.thesis", continuity=2, native_program=True,
+            colour="tab:blue", order=1,
+            description="the thesis's law: one feed per line, quintic blends (Eq. 3.21-3.22); "
+                        "chapter-4 key points with the section 4.3 hand-off"),
+    LawSpec("topp", "feedopt.schedule.topp", continuity=1, colour="tab:orange", order=0,
+            description="time-optimal path parameterisation (toppra), C1"),
+    LawSpec("convex", "feedopt.schedule.convex", continuity=2, colour="tab:green", order=1,
+            uses_context=("topp",),
+            description="convex SOCP with a jerk limit (Verscheure et al. 2009; cvxpy + "
+                        "Clarabel), quintic Hermite output"),
+    LawSpec("jerk", "feedopt.schedule.jerk", continuity=2, colour="tab:purple", order=1,
+            description="jerk-limited sections (ruckig) with backward/forward junction passes"),
+):
+    register_law(_spec)

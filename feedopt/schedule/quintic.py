@@ -2,9 +2,10 @@
 
 A piece moves the tool over ``h`` metres of path in ``T`` seconds with a 5th-order polynomial
 ``s(t)`` (Eq. 3.21) whose six coefficients follow from the boundary values of s, sdot and
-sddot (Eq. 3.22). :class:`QuinticPieces` holds many consecutive pieces as arrays, turns them
-into the :class:`~scipy.interpolate.PPoly` of a :class:`~feedopt.schedule.trajectory.Trajectory`
-and evaluates the feed they command at given path positions (exact inverse of s(t)).
+sddot (Eq. 3.22, :func:`feedopt.schedule.polynomial.quintic_hermite`). :class:`QuinticPieces`
+holds many consecutive pieces as arrays, turns them into the
+:class:`~scipy.interpolate.PPoly` of a :class:`~feedopt.schedule.trajectory.Trajectory` and
+evaluates the feed they command at given path positions (exact inverse of s(t)).
 """
 
 from __future__ import annotations
@@ -14,37 +15,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PPoly
 
+from feedopt.schedule.polynomial import (
+    bisect_increasing,
+    derivative_coefficients,
+    horner,
+    quintic_hermite,
+)
+
 # The s -> t inverse on the normalised piece (u in [0, 1]): bisection to 2^-14, then Newton
 # steps kept inside the bracket (quadratic convergence: 2^-28, 2^-56), exact to rounding.
 _BISECTION_STEPS = 14
 _NEWTON_STEPS = 3
 # Points per piece at which the velocity extrema are estimated before the exact check.
 _DENSE = np.linspace(0.0, 1.0, 33)
-
-
-def quintic_coefficients(
-    h: np.ndarray,
-    v0: np.ndarray,
-    vf: np.ndarray,
-    a0: np.ndarray,
-    af: np.ndarray,
-    T: np.ndarray,
-    s0: np.ndarray | float = 0.0,
-) -> np.ndarray:
-    """Coefficients of the quintic of Eq. 3.21 meeting the six conditions of Eq. 3.22.
-
-    ``s(0) = s0, s(T) = s0 + h, sdot(0) = v0, sdot(T) = vf, sddot(0) = a0, sddot(T) = af``.
-    All arguments broadcast; the result is ``(6, m)``, highest power first (PPoly order), in
-    the local time ``t - t_i``.
-    """
-    h, v0, vf, a0, af, T, s0 = np.broadcast_arrays(
-        *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (h, v0, vf, a0, af, T, s0))
-    )
-    T2 = T * T
-    c3 = (20.0 * h - (8.0 * vf + 12.0 * v0) * T - (3.0 * a0 - af) * T2) / (2.0 * T2 * T)
-    c4 = (-30.0 * h + (14.0 * vf + 16.0 * v0) * T + (3.0 * a0 - 2.0 * af) * T2) / (2.0 * T2 * T2)
-    c5 = (12.0 * h - 6.0 * (vf + v0) * T + (af - a0) * T2) / (2.0 * T2 * T2 * T)
-    return np.stack([c5, c4, c3, 0.5 * a0, v0, s0])
 
 
 def quintic_ramp_duration(
@@ -98,7 +81,7 @@ class QuinticPieces:
 
     def coefficients(self) -> np.ndarray:
         """``(6, m)`` PPoly coefficients (local time, highest power first)."""
-        return quintic_coefficients(self.h, self.v0, self.vf, self.a0, self.af, self.T, self.s0)
+        return quintic_hermite(self.T, self.h, self.v0, self.vf, self.a0, self.af, self.s0)
 
     def ppoly(self) -> PPoly:
         """s(t) of all pieces as one PPoly starting at t = 0."""
@@ -108,52 +91,33 @@ class QuinticPieces:
     def normalised(self) -> np.ndarray:
         """``(6, m)`` coefficients of P(u) with s = s0 + h P(u), t = T u (u in [0, 1])."""
         T, h = self.T, self.h
-        return quintic_coefficients(
-            1.0, self.v0 * T / h, self.vf * T / h, self.a0 * T**2 / h, self.af * T**2 / h, 1.0
+        return quintic_hermite(
+            1.0, 1.0, self.v0 * T / h, self.vf * T / h, self.a0 * T**2 / h, self.af * T**2 / h
         )
 
     def feed_range(self) -> tuple[np.ndarray, np.ndarray]:
         """Estimated (min, max) of sdot over each piece (33 points per piece + ends)."""
-        P = self.normalised()
-        dP = P[:-1] * np.arange(5, 0, -1)[:, None]  # derivative coefficients, highest first
-        vals = np.zeros((_DENSE.size, P.shape[1]))
-        for row in dP:
-            vals = vals * _DENSE[:, None] + row
+        vals = horner(derivative_coefficients(self.normalised()), _DENSE[:, None])
         vals *= self.h / self.T
         return vals.min(axis=0), vals.max(axis=0)
 
     def feed_at(self, s: np.ndarray, piece: np.ndarray) -> np.ndarray:
         """Feed sdot [m/s] at arc lengths ``s`` lying in pieces ``piece`` (exact inverse).
 
-        Bisection on u of the normalised piece, valid while the piece is monotone (sdot >= 0).
+        Bisection on u of the normalised piece, then Newton steps kept inside the bracket;
+        valid while the piece is monotone (sdot >= 0).
         """
         P = self.normalised()[:, piece]
         target = np.clip((s - self.s0[piece]) / self.h[piece], 0.0, 1.0)
-        lo = np.zeros_like(target)
-        hi = np.ones_like(target)
-        for _ in range(_BISECTION_STEPS):
-            mid = 0.5 * (lo + hi)
-            val = np.zeros_like(mid)
-            for row in P:
-                val = val * mid + row
-            below = val < target
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
+        lo, hi = bisect_increasing(P, target, np.zeros_like(target), np.ones_like(target),
+                                   _BISECTION_STEPS)
         u = 0.5 * (lo + hi)
-        dP = P[:-1] * np.arange(5, 0, -1)[:, None]
+        dP = derivative_coefficients(P)
         for _ in range(_NEWTON_STEPS):
-            val = np.zeros_like(u)
-            for row in P:
-                val = val * u + row
-            dval = np.zeros_like(u)
-            for row in dP:
-                dval = dval * u + row
-            step = (val - target) / np.where(dval > 0, dval, np.inf)
+            slope = horner(dP, u)
+            step = (horner(P, u) - target) / np.where(slope > 0, slope, np.inf)
             u = np.clip(u - step, lo, hi)
-        dval = np.zeros_like(u)
-        for row in dP:
-            dval = dval * u + row
-        return dval * self.h[piece] / self.T[piece]
+        return horner(dP, u) * self.h[piece] / self.T[piece]
 
 
 def ppoly_from_jerk_phases(

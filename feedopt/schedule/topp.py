@@ -12,53 +12,86 @@ per-sample bound over its two neighbouring intervals: then sdot <= v_max holds o
 sample, not just on the grid. The output s(t) is piecewise quadratic (continuity 1): the
 acceleration jumps at gridpoints, which is reported, not hidden.
 
-Internally the solver works in millimetres (x ~ 10 mm^2/s^2 rather than 1e-5 m^2/s^2), which
-keeps toppra's absolute tolerances (1e-8 .. 1e-5) meaningful.
+Internally the solver works in millimetres (``MM_PER_M``: x ~ 10 mm^2/s^2 rather than
+1e-5 m^2/s^2), which keeps toppra's absolute tolerances (1e-8 .. 1e-5) meaningful.
+
+Reference: H. Pham and Q.-C. Pham, "A new approach to time-optimal path parameterization
+based on reachability analysis", IEEE Trans. Robotics 34(3), 2018 (toppra).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 from scipy.interpolate import PPoly
 
 from feedopt.errors import InputError
+from feedopt.schedule.checks import check_boundary_feeds, check_positive_bound
+from feedopt.schedule.polynomial import quintic_hermite_spline
 from feedopt.schedule.problem import ScheduleProblem
-from feedopt.schedule.trajectory import Trajectory, ppoly_from_pieces
+from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
+from feedopt.units import MM, MM_PER_M
 
-_MM = 1e3  # metres -> millimetres
+# toppra's joint accelerations exceeding their limit by more than this (relative) between
+# gridpoints get a note.
+_JOINT_ACCELERATION_RTOL = 1e-6
 
 
-def quintic_hermite_coefficients(
-    h: np.ndarray,
-    p0: np.ndarray,
-    v0: np.ndarray,
-    a0: np.ndarray,
-    p1: np.ndarray,
-    v1: np.ndarray,
-    a1: np.ndarray,
-) -> np.ndarray:
-    """Coefficients (highest power first, shape (6, m, ...)) of the quintics on [0, h]
-    matching value, first and second derivative at both ends (vectorised over pieces)."""
-    h = np.asarray(h, dtype=float)
-    if p0.ndim > h.ndim:
-        h = h.reshape(h.shape + (1,) * (p0.ndim - h.ndim))
-    dp = p1 - p0
-    c3 = (20 * dp - (8 * v1 + 12 * v0) * h - (3 * a0 - a1) * h**2) / (2 * h**3)
-    c4 = (-30 * dp + (14 * v1 + 16 * v0) * h + (3 * a0 - 2 * a1) * h**2) / (2 * h**4)
-    c5 = (12 * dp - 6 * (v1 + v0) * h - (a0 - a1) * h**2) / (2 * h**5)
-    return np.stack([c5, c4, c3, 0.5 * a0, v0, p0])
+class ToppOptions(BaseModel):
+    """Tunables of the ``topp`` law (toppra)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    max_gridpoints: int | None = Field(
+        None, ge=2,
+        description="use about this many evenly spaced samples as toppra gridpoints (null: "
+        "every sample; the feed bound still holds on every sample between them)",
+    )
+    use_accel_limit: bool = Field(
+        True, description="impose the tangential acceleration limit on |sddot| (ignored when "
+        "it is infinite)")
+    use_joint_limits: bool = Field(
+        True, description="impose the joint acceleration limits (Interpolation "
+        "discretisation on q(s)); joint velocity limits are always folded into the feed bound")
+
+
+@dataclass(frozen=True)
+class ToppStats(LawStats):
+    """What the ``topp`` law reports (``as_dict()``: its summary.json entry)."""
+
+    gridpoints: int
+    solver: str
+    toppra_time_s: float
+    planning_time_s: float
+    max_accel_jump_m_s2: float
+    lower_bound_s: float
+    #: largest joint acceleration / limit on the samples (None: joint limits not imposed)
+    joint_acceleration_ratio: float | None = None
+    #: toppra's ``ParameterizationReturnCode`` name (``"Ok"``)
+    return_code: str = outcome("Ok")
+
+    @property
+    def joint_acceleration_exceeded(self) -> bool:
+        """Joint accelerations go over their limit between gridpoints (toppra imposes them
+        at gridpoints only)."""
+        ratio = self.joint_acceleration_ratio
+        return ratio is not None and ratio > 1 + _JOINT_ACCELERATION_RTOL
 
 
 class SampledJointPath:
     """toppra geometric path q(s): a C2 quintic Hermite spline through the samples.
 
+    The pieces are :func:`~feedopt.schedule.polynomial.quintic_hermite_spline` through
+    ``(q, dq_ds, d2q_ds2)`` at the samples (the conditions of Eq. 3.22 in s instead of t).
+
     Implements toppra's ``AbstractGeometricPath`` interface (``__call__(s, order)``, ``dof``,
-    ``path_interval``, ``waypoints``). ``scale`` multiplies the path parameter (1e3: s in mm);
-    ``joint_scale`` (dof,) divides each joint (toppra's seidel solver needs the joint
-    acceleration rows normalised to limit 1: with raw limits of 0.01 rad/s^2 it reported
-    controllable instances as uncontrollable).
+    ``path_interval``, ``waypoints``). ``scale`` multiplies the path parameter (``MM_PER_M``:
+    s in mm); ``joint_scale`` (dof,) divides each joint (toppra's seidel solver needs the
+    joint acceleration rows normalised to limit 1: with raw limits of 0.01 rad/s^2 it
+    reported controllable instances as uncontrollable).
     """
 
     def __init__(
@@ -69,9 +102,7 @@ class SampledJointPath:
         q = np.asarray(problem.q, dtype=float) / js
         dq = np.asarray(problem.dq_ds, dtype=float) / scale / js
         d2q = np.asarray(problem.d2q_ds2, dtype=float) / scale**2 / js
-        h = np.diff(s)
-        c = quintic_hermite_coefficients(h, q[:-1], dq[:-1], d2q[:-1], q[1:], dq[1:], d2q[1:])
-        self._pp = PPoly(c, s)
+        self._pp = PPoly(quintic_hermite_spline(np.diff(s), q, dq, d2q), s)
         self._s = s
         self._q = q
 
@@ -168,13 +199,13 @@ def piecewise_quadratic_timing(s: np.ndarray, x: np.ndarray) -> tuple[PPoly, np.
         k = int(np.argmax(vsum <= 0))
         raise InputError(
             f"the feed is zero at both ends of the grid interval starting at "
-            f"s = {s[k] * 1e3:.3f} mm (gridpoint {k}): the bound or limits stop the motion"
+            f"s = {s[k] / MM:.3f} mm (gridpoint {k}): the bound or limits stop the motion"
         )
     dt = 2 * ds / vsum
     u = (x[1:] - x[:-1]) / (2 * ds)
     t = np.concatenate([[0.0], np.cumsum(dt)])
     coeffs = np.stack([0.5 * u, v[:-1], s[:-1]])
-    return ppoly_from_pieces(t, coeffs), u
+    return PPoly(coeffs, t), u
 
 
 def _feed_bound_constraint(xbound: np.ndarray, ubound: np.ndarray | None):
@@ -194,60 +225,16 @@ def _feed_bound_constraint(xbound: np.ndarray, ubound: np.ndarray | None):
     return _Bounds()
 
 
-def plan_topp(
-    problem: ScheduleProblem,
-    *,
-    max_gridpoints: int | None = None,
-    use_accel_limit: bool = True,
-    use_joint_limits: bool = True,
-) -> Trajectory:
-    """Time-optimal timing law by toppra (TOPP-RA, seidel solver).
-
-    Parameters
-    ----------
-    problem : ScheduleProblem
-        Path samples, feed bound and limits.
-    max_gridpoints : int, optional
-        Use about this many evenly spaced samples as gridpoints (default: every sample).
-    use_accel_limit : bool
-        Impose ``problem.accel_max`` on |sddot| (ignored when it is infinite).
-    use_joint_limits : bool
-        Impose the joint acceleration limits (Interpolation discretisation on q(s)).
-        Joint velocity limits are always folded into the per-sample feed bound.
-
-    Returns
-    -------
-    Trajectory
-        ``law="topp"``, piecewise quadratic s(t), ``continuity=1``.
-    """
-    import toppra.algorithm as algo
+def _constraints(problem: ScheduleProblem, v_node: np.ndarray, a_max: float,
+                 use_joint_limits: bool) -> list:
+    """toppra constraints in mm: per-gridpoint bounds on x = sdot^2 and u = sddot, and the
+    joint accelerations (rows normalised to limit 1, see :class:`SampledJointPath`)."""
     import toppra.constraint as constraint
 
-    t_start = time.perf_counter()
-    v_sample = sample_feed_bound(problem)
-    if np.any(~(v_sample > 0)):
-        k = int(np.argmax(~(v_sample > 0)))
-        raise InputError(
-            f"feed bound is {v_sample[k]} m/s at sample {k} (s = {problem.s[k] * 1e3:.3f} mm); "
-            "every sample needs a positive bound"
-        )
-    for name, v in (("v_start", problem.v_start), ("v_end", problem.v_end)):
-        k = 0 if name == "v_start" else problem.n - 1
-        if v < 0 or v > v_sample[k] * (1 + 1e-12):
-            raise InputError(
-                f"{name} = {v * 1e3:.6g} mm/s is outside [0, {v_sample[k] * 1e3:.6g}] mm/s, "
-                f"the feed bound at sample {k}"
-            )
-
-    grid = uniform_grid(problem.n, max_gridpoints)
-    _, v_node = grid_bounds(v_sample, grid)
-    s_grid = problem.s[grid]
-    s_mm = s_grid * _MM
-    xbound = np.column_stack([np.zeros(grid.size), (v_node * _MM) ** 2])
-    a_max = float(problem.accel_max) if use_accel_limit else np.inf
+    xbound = np.column_stack([np.zeros(v_node.size), (v_node * MM_PER_M) ** 2])
     ubound = None
     if np.isfinite(a_max):
-        ubound = np.tile([-a_max * _MM, a_max * _MM], (grid.size, 1))
+        ubound = np.tile([-a_max * MM_PER_M, a_max * MM_PER_M], (v_node.size, 1))
     constraints = [_feed_bound_constraint(xbound, ubound)]
     if use_joint_limits:
         constraints.append(
@@ -256,26 +243,69 @@ def plan_topp(
                 discretization_scheme=constraint.DiscretizationType.Interpolation,
             )
         )
+    return constraints
+
+
+def _solve_toppra(problem: ScheduleProblem, s_grid: np.ndarray, constraints: list):
+    """Run TOPP-RA (seidel) on the gridpoints ``s_grid`` [m].
+
+    Returns ``(sdot [mm/s] at the gridpoints, return code name, solve time [s])``; raises
+    InputError when toppra finds no parameterisation.
+    """
+    import toppra.algorithm as algo
+
     path = SampledJointPath(
-        problem, scale=_MM, joint_scale=np.asarray(problem.joint_acceleration_max, dtype=float)
+        problem, scale=MM_PER_M,
+        joint_scale=np.asarray(problem.joint_acceleration_max, dtype=float),
     )
     instance = algo.TOPPRA(
-        constraints, path, gridpoints=s_mm, solver_wrapper="seidel",
+        constraints, path, gridpoints=s_grid * MM_PER_M, solver_wrapper="seidel",
         parametrizer="ParametrizeConstAccel",
     )
     t_solve = time.perf_counter()
     _, sd_vec, _ = instance.compute_parameterization(
-        problem.v_start * _MM, problem.v_end * _MM
+        problem.v_start * MM_PER_M, problem.v_end * MM_PER_M
     )
     t_solve = time.perf_counter() - t_solve
+    code = instance.problem_data.return_code
     if sd_vec is None or np.any(np.isnan(sd_vec)):
         raise InputError(
-            f"toppra found no feasible parameterisation ({instance.problem_data.return_code}): "
+            f"toppra found no feasible parameterisation ({code}): "
             "the boundary feeds, the feed bound and the acceleration limits are inconsistent"
         )
+    return np.asarray(sd_vec, dtype=float), getattr(code, "name", str(code)), t_solve
+
+
+def plan_topp(problem: ScheduleProblem, options: ToppOptions | None = None) -> Trajectory:
+    """Time-optimal timing law by toppra (TOPP-RA, seidel solver; Pham & Pham 2018).
+
+    Parameters
+    ----------
+    problem : ScheduleProblem
+        Path samples, feed bound and limits.
+    options : ToppOptions, optional
+        Gridpoints and which limits toppra imposes (default: every sample, all limits).
+
+    Returns
+    -------
+    Trajectory
+        ``law="topp"``, piecewise quadratic s(t), ``continuity=1``, :class:`ToppStats`.
+    """
+    options = ToppOptions() if options is None else options
+    t_start = time.perf_counter()
+    v_sample = sample_feed_bound(problem)
+    check_positive_bound("topp", problem, v_sample)
+    check_boundary_feeds("topp", problem, v_sample[0], v_sample[-1])
+
+    grid = uniform_grid(problem.n, options.max_gridpoints)
+    _, v_node = grid_bounds(v_sample, grid)
+    s_grid = problem.s[grid]
+    a_max = float(problem.accel_max) if options.use_accel_limit else np.inf
+    constraints = _constraints(problem, v_node, a_max, options.use_joint_limits)
+    sd_mm, return_code, t_solve = _solve_toppra(problem, s_grid, constraints)
 
     # Back to SI, clip rounding-level excess over the gridpoint bound and the acceleration.
-    x = (np.asarray(sd_vec, dtype=float) / _MM) ** 2
+    x = (sd_mm / MM_PER_M) ** 2
     x = np.minimum(x, v_node**2)
     x[0], x[-1] = problem.v_start**2, problem.v_end**2
     x = limit_acceleration(x, s_grid, a_max)
@@ -289,22 +319,22 @@ def plan_topp(
         "intervals, so it also holds on every fine sample between gridpoints.",
     ]
     jumps = np.abs(np.diff(u)) if u.size > 1 else np.zeros(0)
-    stats = {
-        "gridpoints": int(grid.size),
-        "solver": "toppra seidel",
-        "toppra_time_s": t_solve,
-        "planning_time_s": time.perf_counter() - t_start,
-        "max_accel_jump_m_s2": float(jumps.max(initial=0.0)),
-        "lower_bound_s": problem.lower_bound_time(),
-    }
-    if use_joint_limits:
-        ja = _joint_acceleration_ratio(problem, timing)
-        stats["joint_acceleration_ratio"] = ja
-        if ja > 1 + 1e-6:
-            notes.append(
-                f"joint acceleration reaches {ja:.4f} of its limit between gridpoints "
-                "(toppra imposes it at gridpoints only)"
-            )
+    stats = ToppStats(
+        gridpoints=int(grid.size),
+        solver="toppra seidel",
+        toppra_time_s=t_solve,
+        planning_time_s=time.perf_counter() - t_start,
+        max_accel_jump_m_s2=float(jumps.max(initial=0.0)),
+        lower_bound_s=problem.lower_bound_time(),
+        joint_acceleration_ratio=(_joint_acceleration_ratio(problem, timing)
+                                  if options.use_joint_limits else None),
+        return_code=return_code,
+    )
+    if stats.joint_acceleration_exceeded:
+        notes.append(
+            f"joint acceleration reaches {stats.joint_acceleration_ratio:.4f} of its limit "
+            "between gridpoints (toppra imposes it at gridpoints only)"
+        )
     return Trajectory(law="topp", timing=timing, continuity=1, notes=tuple(notes), stats=stats)
 
 

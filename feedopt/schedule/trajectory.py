@@ -3,19 +3,78 @@
 A timing law is ``s(t)``; everything else (feed, tangential acceleration and jerk, pose and
 joint values) follows from it and the path. Every law in :mod:`feedopt.schedule` returns a
 :class:`Trajectory`, so the verifier, the RSI resampler and the report treat them alike.
-Resampling at the RSI cycle evaluates the polynomial itself, so a C2 law stays C2.
+Resampling at the RSI cycle evaluates the polynomial itself, so a C2 law stays C2. What a law
+reports about itself is a typed :class:`LawStats` (each law's ``<Law>Stats``), whose
+:meth:`LawStats.as_dict` is its summary.json entry.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import enum
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import PPoly
 
+from feedopt.schedule.polynomial import bisect_increasing
+
 # Number of bisection steps when inverting s(t); 2^-60 of a piece's duration is far below
 # floating-point resolution of t, so the inverse is exact to rounding.
 _BISECTION_STEPS = 60
+
+
+def outcome(default: Any = None, **kwargs) -> Any:
+    """A :class:`LawStats` field that is typed data for code, not a summary.json entry."""
+    if "default_factory" in kwargs:
+        return field(metadata={"summary": False}, **kwargs)
+    return field(default=default, metadata={"summary": False}, **kwargs)
+
+
+def _plain(value: Any) -> Any:
+    """A summary value as it was before stats were typed (records -> dicts / tuples)."""
+    if isinstance(value, enum.Enum):
+        return value.value
+    if hasattr(value, "as_dict"):
+        return value.as_dict()
+    if isinstance(value, tuple) and hasattr(value, "_fields"):  # a NamedTuple row
+        return tuple(_plain(v) for v in value)
+    if isinstance(value, tuple) and value and all(
+        hasattr(v, "as_dict") or hasattr(v, "_fields") for v in value
+    ):
+        return [_plain(v) for v in value]  # a table of records: a list, as before
+    return value
+
+
+@dataclass(frozen=True)
+class LawStats(Mapping):
+    """Typed numbers a law reports about itself; the base of every law's ``<Law>Stats``.
+
+    Fields are read as attributes (``traj.stats.gap_to_topp``). :meth:`as_dict` is what
+    summary.json gets (``law_summary``): every field in declaration order, except fields
+    declared with :func:`outcome` (typed outcomes for code: what was lowered, violated, ...)
+    and optional fields that are ``None`` (e.g. no topp run to compare with). The mapping
+    interface (``stats["key"]``, ``.items()``) reads the same dictionary.
+    """
+
+    def as_dict(self) -> dict[str, Any]:
+        """The summary entries: ``{name: value}`` as summary.json writes them."""
+        out = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.metadata.get("summary", True) and value is not None:
+                out[f.name] = _plain(value)
+        return out
+
+    def __getitem__(self, key: str) -> Any:
+        return self.as_dict()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.as_dict())
+
+    def __len__(self) -> int:
+        return len(self.as_dict())
 
 
 @dataclass(frozen=True)
@@ -44,15 +103,16 @@ class Trajectory:
         sddot are continuous (C2); 1 means the acceleration may jump (toppra's output).
     notes : tuple of str
         Honest remarks from the law (a bound it could not meet, an approximation it made).
-    stats : dict
-        Law-specific numbers for the report (solver status, iterations, optimality gap, ...).
+    stats : LawStats
+        Law-specific typed numbers and outcomes (solver status, iterations, optimality gap,
+        lowered feeds, ...); ``stats.as_dict()`` is the summary.json entry.
     """
 
     law: str
     timing: PPoly
     continuity: int = 2
     notes: tuple[str, ...] = ()
-    stats: dict = field(default_factory=dict)
+    stats: LawStats = field(default_factory=LawStats)
 
     @property
     def duration(self) -> float:
@@ -95,34 +155,11 @@ class Trajectory:
         s_break = np.maximum.accumulate(s_break)  # guard against -0 rounding noise
         s_clipped = np.clip(s, s_break[0], s_break[-1])
         piece = np.clip(np.searchsorted(s_break, s_clipped, side="left") - 1, 0, len(pp.x) - 2)
-        lo = pp.x[piece].copy()
-        hi = pp.x[piece + 1].copy()
-        coeffs = pp.c[:, piece]  # (k+1, m), highest power first
-        for _ in range(_BISECTION_STEPS):
-            mid = 0.5 * (lo + hi)
-            dt = mid - pp.x[piece]
-            val = np.zeros_like(mid)
-            for row in coeffs:  # Horner over the (small) polynomial degree, vectorised over s
-                val = val * dt + row
-            below = val < s_clipped
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
+        _, hi = bisect_increasing(pp.c[:, piece], s_clipped, pp.x[piece], pp.x[piece + 1],
+                                  _BISECTION_STEPS, origin=pp.x[piece])
         return hi
 
     def feed_at(self, s: np.ndarray) -> np.ndarray:
         """Commanded path velocity sdot [m/s] when the tool is at arc length ``s`` [m]."""
         return self.timing.derivative(1)(self.time_at(s))
 
-
-def ppoly_from_pieces(t_breaks: np.ndarray, coefficients: np.ndarray) -> PPoly:
-    """Build ``s(t)`` from per-piece polynomial coefficients.
-
-    Parameters
-    ----------
-    t_breaks : (m+1,) array
-        Increasing breakpoints [s].
-    coefficients : (k+1, m) array
-        Coefficients of each piece in the local variable ``t - t_breaks[i]``, highest power
-        first (scipy's PPoly convention).
-    """
-    return PPoly(np.asarray(coefficients, dtype=float), np.asarray(t_breaks, dtype=float))

@@ -7,6 +7,7 @@ import numpy as np
 from feedopt.cli import main
 from feedopt.robot.model import forward_kinematics
 from feedopt.robot.stiffness import deflection, translational_compliance
+from feedopt.units import MM
 from tests.robot.helpers import KUKA_DIR, Q_START_DEG, UR10_DIR
 
 
@@ -14,11 +15,11 @@ def test_robot_command_prints_pose_stiffness_and_deflection(capsys, kuka):
     q = ",".join(f"{v}" for v in Q_START_DEG)
     assert main(["robot", str(KUKA_DIR), f"--q-deg={q}", "--force-n", "100,-50,20"]) == 0
     out = capsys.readouterr().out
-    pose = forward_kinematics(kuka, np.deg2rad(Q_START_DEG)) * 1e3
+    pose = forward_kinematics(kuka, np.deg2rad(Q_START_DEG)) / MM
     assert f"X={pose[0, 3]:.3f} Y={pose[1, 3]:.3f} Z={pose[2, 3]:.3f} mm" in out
     assert "principal stiffnesses" in out and out.count(" along [") == 3
     c = translational_compliance(kuka, np.deg2rad(Q_START_DEG)[None], "dpp")
-    d = deflection(c, np.array([[100.0, -50.0, 20.0]]))[0] * 1e3
+    d = deflection(c, np.array([[100.0, -50.0, 20.0]]))[0] / MM
     assert f"dx={d[0]:.5f} dy={d[1]:.5f} dz={d[2]:.5f}" in out
 
 
@@ -82,9 +83,7 @@ def test_robot_command_quiet_away_from_singularities(capsys):
 
 
 def test_near_singular_threshold_is_the_path_ik_limit():
-    import inspect
-
     from feedopt.commands.robot import NEAR_SINGULAR
-    from feedopt.robot.ik import solve_path_ik
+    from feedopt.robot.ik import IKOptions
 
-    assert NEAR_SINGULAR == inspect.signature(solve_path_ik).parameters["max_condition"].default
+    assert NEAR_SINGULAR == IKOptions().max_condition == 100.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -10,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from feedopt.errors import InputError
-from feedopt.robot.ik import solve_path_ik
+from feedopt.robot import ik as ik_module
+from feedopt.robot.ik import IKOptions, solve_path_ik
 from feedopt.robot.model import forward_kinematics, load_robot
 from tests.robot.helpers import KUKA_DIR, Q_START_DEG, WORKPIECE_ORIGIN_M, triangle_wave
 
@@ -44,7 +46,8 @@ def test_round_trip_second_robot(ur10):
     poses = forward_kinematics(ur10, q_true)
     for q, pose in zip(q_true, poses, strict=True):
         res = solve_path_ik(ur10, pose[None, :3, 3], pose[None, :3, 2], q + 0.02,
-                            x_axes=pose[None, :3, 0], max_condition=1e4)
+                            x_axes=pose[None, :3, 0],
+                            options=IKOptions(max_condition=1e4))
         np.testing.assert_allclose(forward_kinematics(ur10, res.q)[0], pose, atol=1e-9)
 
 
@@ -106,7 +109,8 @@ def test_near_singular_pose_reports_condition_number(kuka):
 def test_joint_jump_is_refused(kuka):
     p, z = _triangle_task(7)  # 50 mm between samples: big joint steps
     with pytest.raises(InputError, match=r"sample 1 .*jumps by"):
-        solve_path_ik(kuka, p, z, np.deg2rad(Q_START_DEG), max_joint_step=np.deg2rad(0.5))
+        solve_path_ik(kuka, p, z, np.deg2rad(Q_START_DEG),
+                      options=IKOptions(max_joint_step=np.deg2rad(0.5)))
 
 
 def test_joint_limit_violation_is_named(tmp_path):
@@ -136,3 +140,74 @@ def test_bad_inputs(kuka):
         solve_path_ik(kuka, p, z, np.deg2rad([0, 40, 90, 0, 45, 0]))
     with pytest.raises(InputError, match="shape"):
         solve_path_ik(kuka, p[:, :2], z, q0)
+
+
+def test_ik_options_defaults_and_validation():
+    o = IKOptions()
+    assert (o.tol_position, o.tol_angle, o.coarse_position, o.coarse_angle) == (
+        1e-10, 1e-10, 1e-4, 1e-3)
+    assert (o.max_iterations, o.max_iterations_first, o.max_newton_step, o.damping) == (
+        20, 300, 0.2, 1e-12)
+    assert (o.fail_position, o.fail_angle, o.max_condition, o.condition_length) == (
+        1e-7, 1e-7, 100.0, 1.0)
+    assert o.max_joint_step == np.deg2rad(5.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        o.max_condition = 1e3
+    assert IKOptions(damping=0.0).damping == 0.0
+    for bad in ({"max_iterations": 0}, {"max_iterations_first": 2.5}, {"tol_position": 0.0},
+                {"max_condition": float("inf")}, {"damping": -1.0}, {"max_joint_step": np.nan}):
+        with pytest.raises(ValueError, match=f"IKOptions.{next(iter(bad))}"):
+            IKOptions(**bad)
+
+
+def test_default_options_are_the_options_none(kuka):
+    p, z = _triangle_task(101)
+    q0 = np.deg2rad(Q_START_DEG)
+    a = solve_path_ik(kuka, p, z, q0)
+    b = solve_path_ik(kuka, p, z, q0, None, IKOptions())
+    for name in ("q", "condition_number", "position_error", "axis_error"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_tight_options_take_effect(kuka):
+    p, z = _triangle_task(101)
+    q0 = np.deg2rad(Q_START_DEG)
+    with pytest.raises(InputError, match=r"condition number .* > 2"):
+        solve_path_ik(kuka, p, z, q0, options=IKOptions(max_condition=2.0))
+    # one Newton step per sample and none in refinement cannot reach 1e-10 m from q_start
+    with pytest.raises(InputError, match="sample 0 .*unreachable"):
+        solve_path_ik(kuka, p, z, q0 + 0.1,
+                      options=IKOptions(max_iterations_first=1, max_iterations=1))
+
+
+def test_damped_newton_step_is_minimum_norm_and_clamped():
+    rng = np.random.default_rng(4)
+    jt = rng.normal(size=(5, 6))
+    e = rng.normal(size=5) * 1e-3
+    eye = np.eye(5) * 1e-12
+    dq = ik_module._damped_newton_step(jt, e, eye, max_step=10.0)
+    np.testing.assert_allclose(jt @ dq, e, atol=1e-12)
+    np.testing.assert_allclose(dq, np.linalg.pinv(jt) @ e, atol=1e-12)  # minimum norm
+    big = ik_module._damped_newton_step(jt, e * 1e4, eye, max_step=0.2)
+    assert np.isclose(np.abs(big).max(), 0.2)
+    np.testing.assert_allclose(big / np.linalg.norm(big), dq / np.linalg.norm(dq), atol=1e-9)
+
+
+def test_seed_is_a_first_order_predictor():
+    q = np.array([[0.0, 1.0], [0.1, 1.2], [9.0, 9.0]])
+    q_start = np.array([-1.0, -2.0])
+    np.testing.assert_array_equal(ik_module._seed(q, 0, q_start), q_start)
+    np.testing.assert_array_equal(ik_module._seed(q, 1, q_start), q[0])
+    np.testing.assert_allclose(ik_module._seed(q, 2, q_start), [0.2, 1.4])
+    assert ik_module._seed(q, 1, q_start) is not q[0]
+
+
+def test_path_check_phases(kuka):
+    q = np.deg2rad(np.array([Q_START_DEG, Q_START_DEG, Q_START_DEG]))
+    q[1, 2] += np.deg2rad(6.0)
+    steps = ik_module._joint_steps(q)
+    np.testing.assert_array_equal(steps[0], 0.0)
+    np.testing.assert_allclose(np.rad2deg(steps[1:, 2]), [6.0, 6.0])
+    q[2, 1] = kuka.q_upper[1] + 1e-6
+    below, above = ik_module._outside_limits(kuka, q)
+    assert not below.any() and np.array_equal(np.argwhere(above), [[2, 1]])

@@ -156,3 +156,65 @@ def test_load_errors_name_the_problem(tmp_path):
     (d / "robot.yaml").write_text(text.replace("urdf: kr500_3.urdf", "urdf: missing.urdf"))
     with pytest.raises(InputError, match="does not exist"):
         load_robot(d)
+
+
+def _edit(d, old, new):
+    text = (d / "robot.yaml").read_text()
+    assert old in text, old
+    (d / "robot.yaml").write_text(text.replace(old, new))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("urdf: kr500_3.urdf\n", "", "missing field 'urdf'"),
+        ("flange_frame: flange\n", "tcp_frame: nope\nflange_frame: flange\n",
+         "tcp_frame 'nope' is not a frame"),
+        ("tool:\n  tcp_xyz_mm: [400.0, 0.0, 0.0]",
+         "tool: [1, 2]\nx_tool:\n  tcp_xyz_mm: [400.0, 0.0, 0.0]", "'tool' must be a mapping"),
+        ("tcp_xyz_mm: [400.0, 0.0, 0.0]", "tcp_xyz_mm: [400.0, 0.0]", "tool.tcp_xyz_mm"),
+        ("joint_stiffness_mnm_per_rad:", "stiffness_typo:",
+         "missing 'joint_stiffness_mnm_per_rad'"),
+        ("dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0.14]", "dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0]",
+         "joint_stiffness_mnm_per_rad.dpp must be > 0"),
+        ("joint_velocity_deg_s:", "joint_speed_deg_s:", "missing field 'joint_velocity_deg_s'"),
+        ("values: [84.0, 79.0, 73.0, 76.0, 74.0, 123.0]\n  source: >-\n    CONSERVATIVE",
+         "values: [84.0, 79.0, 73.0, 76.0, 74.0, -1]\n  source: >-\n    CONSERVATIVE",
+         "joint_acceleration_deg_s2 must be positive"),
+        ("controller: kuka", "controller: abb", "controller must be one of kuka, ur, generic"),
+        ("warnings:\n  - >-", "warnings:\n  - 3\n  - >-", "warnings must be a list of sentences"),
+    ],
+)
+def test_each_load_phase_names_its_field(tmp_path, old, new, message):
+    d = _copy_robot(tmp_path)
+    _edit(d, old, new)
+    with pytest.raises(InputError, match=message):
+        load_robot(d)
+
+
+def test_loads_with_an_existing_tcp_frame(tmp_path):
+    d = _copy_robot(tmp_path)
+    _edit(d, "flange_frame: flange\n", "tcp_frame: flange\n")
+    robot = load_robot(d)
+    np.testing.assert_array_equal(robot.tcp_offset, np.eye(4))
+    assert robot.sources["tool"].startswith("Assumed")  # tool.source is kept
+    kuka = load_robot(KUKA_DIR)
+    q = np.deg2rad(TABLE_A3_DEG)
+    flange = forward_kinematics(robot, q)
+    np.testing.assert_allclose(forward_kinematics(kuka, q), flange @ kuka.tcp_offset, atol=1e-12)
+
+
+def test_units_and_defaults_of_the_loaded_model(kuka, ur10):
+    np.testing.assert_array_equal(kuka.stiffness["dpp"],
+                                  np.array([2.86, 2.36, 1.67, 0.24, 0.16, 0.14]) * 1e6)
+    np.testing.assert_array_equal(kuka.joint_velocity_max,
+                                  np.array([84.0, 79.0, 73.0, 76.0, 74.0, 123.0]) * (np.pi / 180))
+    np.testing.assert_array_equal(kuka.tcp_offset[:3, 3], [0.4, 0.0, 0.0])  # 400 mm * MM
+    # tcp_rpy_deg [0, -90, 0]: TCP z = -flange x; UR10 [180, 0, 0]: TCP z = -flange z
+    np.testing.assert_allclose(kuka.tcp_offset[:3, 2], [-1, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(ur10.tcp_offset[:3, 2], [0, 0, -1], atol=1e-15)
+    assert list(kuka.sources) == ["kinematics", "joint_limits", "tool", "stiffness",
+                                  "joint_velocity", "joint_acceleration"]
+    assert kuka.controller == "kuka" and ur10.controller == "ur"
+    assert kuka.joint_names == tuple(f"joint_a{i}" for i in range(1, 7))
+    assert all("\n" not in w and "  " not in w for w in kuka.data_warnings)

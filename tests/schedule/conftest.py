@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from feedopt.schedule.problem import ScheduleProblem
-
-MM = 1e-3
+from feedopt.units import MM
 
 
 def _joint_path(s: np.ndarray, dof: int = 6):

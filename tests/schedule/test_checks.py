@@ -8,11 +8,20 @@ import numpy as np
 import pytest
 from scipy.interpolate import PPoly
 
-from feedopt.schedule.checks import BOUND_REACHED_RTOL, check_timing, find_ramps
+from feedopt.errors import InputError
+from feedopt.schedule.checks import (
+    BOUND_REACHED_RTOL,
+    BOUNDARY_FEED_RTOL,
+    Violation,
+    check_boundary_feeds,
+    check_positive_bound,
+    check_timing,
+    find_ramps,
+)
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
+from feedopt.units import MM
 
-MM = 1e-3
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -193,3 +202,68 @@ def test_problem_strings_are_in_user_units() -> None:
     short = _problem(length * 1.01, 2 * v, n=401)
     assert any(f"covers {length / MM:.9g} mm of a {1.01 * length / MM:.9g} mm path" in p
                for p in check_timing(traj, short).problems)
+
+
+def test_violations_flag_every_problem() -> None:
+    v = 4e-3
+    traj, _ = _smooth_profile(v, t_up=0.02, t_cruise=5.0, d=0.0, t_dip=0.5, t_down=0.02)
+    length = traj.length
+    problem = _problem(length, 0.5 * v, n=401, accel_max=0.2, jerk_max=5.0,
+                       joint_velocity_max=np.full(6, np.deg2rad(0.1)), v_start=1e-3)
+    chk = check_timing(traj, problem)
+    assert chk.violations == (Violation.FEED_BOUND | Violation.ACCELERATION | Violation.JERK
+                              | Violation.JOINT_VELOCITY | Violation.START_FEED)
+    assert len(chk.problems) == 5
+    ok = check_timing(traj, _problem(length, 2 * v, n=401))
+    assert ok.ok and ok.violations == Violation.NONE and not ok.violations
+    # the constant baseline's bound excess is measured, not flagged
+    base = check_timing(traj, _problem(length, 0.5 * v, n=401), enforce_feed_bound=False)
+    assert Violation.FEED_BOUND not in base.violations and base.feed_ratio > 1
+
+
+def test_a_reversing_trajectory_is_flagged_as_reversal() -> None:
+    # s(t) = t^3 - 1.5 t^2 + 0.6 t on [0, 1]: sdot = 3 t^2 - 3 t + 0.6 < 0 around t = 0.5
+    c = np.array([[1.0], [-1.5], [0.6], [0.0]]) * 1e-3
+    traj = Trajectory(law="test", timing=PPoly(c, np.array([0.0, 1.0])), continuity=2)
+    chk = check_timing(traj, _problem(traj.length, 1.0, v_start=0.6e-3, v_end=0.6e-3))
+    assert Violation.REVERSAL in chk.violations
+    assert any("would reverse" in p for p in chk.problems)
+
+
+def test_boundary_feed_check_refuses_feeds_outside_zero_to_the_bound() -> None:
+    p = _problem(0.1, 3e-3, v_start=3e-3, v_end=0.0)
+    check_boundary_feeds("some", p)  # at the bound: accepted
+    check_boundary_feeds("some", _problem(0.1, 3e-3, v_start=3e-3 * (1 + BOUNDARY_FEED_RTOL)))
+    with pytest.raises(InputError, match=r"some law: v_start = 3.003 mm/s is outside "
+                                         r"\[0, 3\] mm/s, the feed bound at the path start"):
+        check_boundary_feeds("some", _problem(0.1, 3e-3, v_start=3.003e-3))
+    with pytest.raises(InputError, match=r"v_end = -1 mm/s .* path end \(sample 200\)"):
+        check_boundary_feeds("some", _problem(0.1, 3e-3, v_end=-1e-3))
+    # a law may pass a tighter bound (toppra: joint velocities; jerk law: its section cap)
+    with pytest.raises(InputError, match=r"outside \[0, 2\] mm/s"):
+        check_boundary_feeds("some", p, start_bound=2e-3)
+    check_boundary_feeds("some", p, end_bound=0.0)
+
+
+def test_positive_bound_check() -> None:
+    p = _problem(0.1, 3e-3)
+    check_positive_bound("some", p, p.v_max)
+    v = p.v_max.copy()
+    v[7] = 0.0
+    with pytest.raises(InputError, match="some law: the feed bound is 0 mm/s at sample 7"):
+        check_positive_bound("some", p, v)
+    v[7] = np.nan
+    with pytest.raises(InputError, match="sample 7"):
+        check_positive_bound("some", p, v)
+
+
+@pytest.mark.parametrize("law", ["thesis", "topp", "convex", "jerk"])
+def test_every_law_refuses_a_boundary_feed_above_the_bound(law) -> None:
+    from feedopt.schedule import convex, jerk, thesis, topp
+    from tests.schedule.conftest import wave_problem
+
+    plan = {"thesis": thesis.plan_thesis, "topp": topp.plan_topp,
+            "convex": convex.plan_convex, "jerk": jerk.plan_jerk}[law]
+    for field in ("v_start", "v_end"):
+        with pytest.raises(InputError, match=f"{law} law: {field} = 5 mm/s is outside"):
+            plan(wave_problem(301, **{field: 5 * MM}))

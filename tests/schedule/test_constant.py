@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pydantic import ValidationError
 
 from feedopt.errors import InputError
 from feedopt.schedule.checks import check_timing
-from feedopt.schedule.constant import plan_constant
+from feedopt.schedule.constant import ConstantOptions, plan_constant
+from feedopt.units import MM
 from tests.schedule.conftest import ramp_problem, wave_problem
 
 
 @pytest.mark.parametrize("ramp", ["quintic", "jerk"])
 def test_nominal_feed_c2_and_violation_reported(ramp):
     p = wave_problem()
-    tr = plan_constant(p, ramp=ramp)
+    tr = plan_constant(p, ConstantOptions(ramp=ramp))
     chk = check_timing(tr, p)
     # everything holds except the feed bound, which the law ignores by design
     assert len(chk.problems) == 1 and "exceeds its bound" in chk.problems[0]
@@ -25,20 +27,20 @@ def test_nominal_feed_c2_and_violation_reported(ramp):
     np.testing.assert_allclose(tr.feed_at(p.s[inner]), p.nominal_feed, rtol=1e-12)
     # the measured violation, stated in notes, equals nominal / min bound (independent)
     want = float(np.max(p.nominal_feed / p.v_max[inner]))
-    assert abs(tr.stats["max_feed_ratio"] - want) < 1e-9
+    assert abs(tr.stats.max_feed_ratio - want) < 1e-9 and tr.stats.exceeds_bound
     assert any(f"{want:.4f}" in n for n in tr.notes)
     # cycle time: cruise time plus what the ramps lose (ramp length / 2 each at rest ends)
-    h_up, h_dn = (x * 1e-3 for x in tr.stats["ramp_lengths_mm"])
+    h_up, h_dn = (x * MM for x in tr.stats.ramp_lengths_mm)
     assert abs(tr.duration - (p.length + h_up + h_dn) / p.nominal_feed) < 1e-9
 
 
 def test_jerk_ramp_is_time_optimal_s_curve():
     p = ramp_problem()
-    q = plan_constant(p, ramp="quintic")
-    j = plan_constant(p, ramp="jerk")
+    q = plan_constant(p, ConstantOptions(ramp="quintic"))
+    j = plan_constant(p, ConstantOptions(ramp="jerk"))
     # the bang-zero-bang jerk ramp needs 2 sqrt(v/J) (no acceleration-limited phase here)
     v = p.nominal_feed
-    assert abs(j.stats["ramp_lengths_mm"][0] * 1e-3 - v * np.sqrt(v / p.jerk_max)) < 1e-12
+    assert abs(j.stats.ramp_lengths_mm[0] * MM - v * np.sqrt(v / p.jerk_max)) < 1e-12
     assert j.duration < q.duration
     assert check_timing(j, p).max_jerk == pytest.approx(p.jerk_max, rel=1e-9)
 
@@ -51,17 +53,18 @@ def test_short_path_lowers_cruise_and_boundary_feeds():
     tr = plan_constant(p)
     chk = check_timing(tr, p)
     assert chk.ok, chk.problems
-    assert tr.stats["cruise_feed_mm_s"] < 4.23 and "lowered" in tr.notes[0]
+    assert tr.stats.cruise_feed_mm_s < 4.23 and tr.stats.cruise_lowered
+    assert "lowered" in tr.notes[0]
     p2 = wave_problem(v_start=1e-3, v_end=2e-3)
-    chk2 = check_timing(plan_constant(p2, ramp="jerk"), p2)
+    chk2 = check_timing(plan_constant(p2, ConstantOptions(ramp="jerk")), p2)
     assert abs(chk2.start_feed - 1e-3) < 1e-9 and abs(chk2.end_feed - 2e-3) < 1e-9 and chk2.c2
 
 
 def test_bad_input():
-    with pytest.raises(InputError, match="ramp"):
-        plan_constant(wave_problem(), ramp="linear")
+    with pytest.raises(ValidationError, match="ramp"):
+        ConstantOptions(ramp="linear")
     with pytest.raises(InputError, match="jerk"):
-        plan_constant(wave_problem(jerk_max=np.inf), ramp="jerk")
+        plan_constant(wave_problem(jerk_max=np.inf), ConstantOptions(ramp="jerk"))
 
 
 def test_handles_1e5_samples():

@@ -8,6 +8,14 @@ import pytest
 from feedopt.errors import InputError
 from feedopt.schedule.checks import check_timing
 from feedopt.schedule.convex import (
+    ConvexAttempt,
+    ConvexOptions,
+    Overshoot,
+    SocpStatus,
+    _notes,
+    _Scales,
+    _shrunk,
+    _violations,
     grid_bounds_at,
     jerk_limited_reach,
     plan_convex,
@@ -29,10 +37,10 @@ def test_convex_is_c2_jerk_limited_and_under_the_bound(make):
     assert check.feed_ratio <= 1 + 1e-6
     assert check.max_jerk <= problem.jerk_max * (1 + 1e-6)
     # jerk exactly (quadratic per piece), not only on check_timing's 9 points per piece
-    assert traj.stats["max_jerk_m_s3"] <= problem.jerk_max
+    assert traj.stats.max_jerk_m_s3 <= problem.jerk_max
     t_star = problem.lower_bound_time()
     assert t_star < traj.duration < 1.02 * t_star
-    assert traj.stats["gap_to_topp"] == pytest.approx(traj.duration / topp.duration - 1)
+    assert traj.stats.gap_to_topp == pytest.approx(traj.duration / topp.duration - 1)
     # starts and stops with zero acceleration (jerk-limited from rest)
     d2 = traj.timing.derivative(2)
     assert abs(d2(traj.timing.x[0])) < 1e-12 and abs(d2(traj.timing.x[-1])) < 1e-9
@@ -40,8 +48,8 @@ def test_convex_is_c2_jerk_limited_and_under_the_bound(make):
 
 def test_long_path_uses_an_adaptive_grid_and_stays_verified():
     problem = wave_problem(20001)
-    traj = plan_convex(problem, max_gridpoints=800, compare_topp=False)
-    assert traj.stats["gridpoints"] < 1000
+    traj = plan_convex(problem, ConvexOptions(max_gridpoints=800, compare_topp=False))
+    assert traj.stats.gridpoints < 1000
     check = check_timing(traj, problem)
     assert check.ok, check.problems
     assert traj.duration < 1.02 * problem.lower_bound_time()
@@ -49,7 +57,7 @@ def test_long_path_uses_an_adaptive_grid_and_stays_verified():
 
 def test_nonzero_boundary_feeds():
     problem = ramp_problem(1001, v_start=2e-3, v_end=1e-3)
-    traj = plan_convex(problem, compare_topp=False)
+    traj = plan_convex(problem, ConvexOptions(compare_topp=False))
     check = check_timing(traj, problem)
     assert check.ok, check.problems
     assert check.start_feed == pytest.approx(2e-3, rel=1e-6)
@@ -58,7 +66,7 @@ def test_nonzero_boundary_feeds():
 
 def test_active_joint_acceleration_limit():
     problem = wave_problem(1501, joint_acceleration_max=np.full(6, 3.0e-3))
-    traj = plan_convex(problem, compare_topp=False)
+    traj = plan_convex(problem, ConvexOptions(compare_topp=False))
     check = check_timing(traj, problem)
     assert check.joint_acceleration_ratio <= 1 + 1e-6
     assert check.ok, check.problems
@@ -111,3 +119,55 @@ def test_quintic_timing_reproduces_constant_jerk_motion():
     np.testing.assert_allclose(pp.x, t, atol=1e-12)
     tt = np.linspace(0, 0.5, 101)
     np.testing.assert_allclose(pp.derivative(3)(tt), j, rtol=1e-6)
+
+
+def _attempt(overshoot=Overshoot.NONE, **kw):
+    values = dict(feed_ratio=0.99, max_accel=0.1, max_jerk=4.0, status=SocpStatus.OPTIMAL,
+                  feed_scale=1.0, jerk_scale=0.98, accel_scale=1.0)
+    values.update(kw)
+    return ConvexAttempt(overshoot=overshoot, **values)
+
+
+def test_attempts_are_typed_and_summarised_as_before():
+    problem = wave_problem(1001)
+    traj = plan_convex(problem, ConvexOptions(compare_topp=False))
+    stats = traj.stats
+    assert stats.status is SocpStatus.OPTIMAL and stats.status.solved
+    assert stats.resolves == len(stats.attempts) - 1
+    last = stats.attempts[-1]
+    assert last.overshoot == Overshoot.NONE and stats.violations == Overshoot.NONE
+    assert all(a.overshoot for a in stats.attempts[:-1])  # each re-solve had a reason
+    row = stats.as_dict()["attempts"][-1]
+    assert row == {"feed_ratio": last.feed_ratio, "max_accel": last.max_accel,
+                   "max_jerk": last.max_jerk, "status": "optimal",
+                   "feed_scale": last.feed_scale, "jerk_scale": last.jerk_scale,
+                   "accel_scale": last.accel_scale}
+    assert stats.as_dict()["status"] == "optimal" and stats.gap_to_topp is None
+
+
+def test_overshoot_flags_decide_the_next_limits():
+    problem = wave_problem(301)
+    opts = ConvexOptions()
+    start = _Scales(1.0, 0.98, 1.0)
+    assert _shrunk(start, _attempt(), problem, opts) == start
+    over = _attempt(Overshoot.FEED | Overshoot.JERK | Overshoot.ACCELERATION,
+                    feed_ratio=1.01, max_jerk=2 * problem.jerk_max,
+                    max_accel=4 * problem.accel_max)
+    feed, jerk, accel = _shrunk(start, over, problem, opts)
+    assert feed == pytest.approx((1 - 1e-6) / 1.01)
+    assert jerk == pytest.approx(0.98 * 0.999 / 2)
+    assert accel == pytest.approx(0.999 / 4)
+    rev = _shrunk(start, _attempt(Overshoot.REVERSAL), problem, opts)
+    assert rev == (1.0, pytest.approx(0.98 * 0.9), 1.0)
+
+
+def test_remaining_violations_are_typed_and_noted():
+    problem = wave_problem(301)
+    ok = _attempt(feed_ratio=1.0 + 1e-12)  # rounding: not a violation
+    assert _violations(ok, problem) == Overshoot.NONE
+    bad = _attempt(Overshoot.REVERSAL, feed_ratio=1.001, max_jerk=1.01 * problem.jerk_max)
+    found = _violations(bad, problem)
+    assert found == Overshoot.FEED | Overshoot.JERK | Overshoot.REVERSAL
+    notes = _notes(301, (ok, bad), found, problem)
+    assert "re-solved 1 time(s)" in notes[1]
+    assert sum(n.startswith("VIOLATION") for n in notes) == 3

@@ -10,7 +10,7 @@ from feedopt.process.coefficients import load_coefficients
 from feedopt.process.engagement import peripheral_engagement, slot_engagement
 from feedopt.process.forces import Engagement, critical_angles, milling_forces
 from feedopt.process.tool import load_tool
-from feedopt.schedule.bounds import feed_bound
+from feedopt.schedule.bounds import BoundInputs, feed_bound
 from feedopt.schedule.deflection import DeflectionModel, feed_frames
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -93,8 +93,8 @@ def test_bound_is_tight_under_replay(mode: str) -> None:
     model = _model(mode=mode)
     zero = model.deflection(np.zeros(model.n))
     limit = 1.5 * zero.max()
-    bound = feed_bound(model, limit, max_feed=1.0, dq_ds=np.ones((model.n, 6)),
-                       joint_velocity_max=np.full(6, 10.0))
+    bound = feed_bound(BoundInputs(model, limit, max_feed=1.0, dq_ds=np.ones((model.n, 6)),
+                                   joint_velocity_max=np.full(6, 10.0)))
     assert np.all(bound.active_names() == "deflection")
     d = model.deflection(bound.v_max)
     np.testing.assert_allclose(d, limit, rtol=1e-7)
@@ -106,8 +106,8 @@ def test_peripheral_zero_immersion_is_unbounded_by_deflection() -> None:
     radial = np.linspace(0.0, 9.525e-3, 30)
     eng = peripheral_engagement(radial, 19.05e-3, 2.54e-3, "down")
     model = _model(n=30, engagement=eng, same_pose=True)
-    bound = feed_bound(model, 0.2e-3, max_feed=0.0127, dq_ds=np.ones((30, 6)),
-                       joint_velocity_max=np.full(6, 10.0))
+    bound = feed_bound(BoundInputs(model, 0.2e-3, max_feed=0.0127, dq_ds=np.ones((30, 6)),
+                                   joint_velocity_max=np.full(6, 10.0)))
     assert bound.v_max[0] == pytest.approx(0.0127)  # no cut: only the max feed binds
     assert np.all(np.diff(bound.parts["deflection"][1:]) <= 1e-12)  # deeper cut, lower bound
 
@@ -117,8 +117,8 @@ def test_edge_forces_alone_exceeding_limit_is_a_clear_error() -> None:
     zero = model.deflection(np.zeros(model.n))
     positions = np.zeros((model.n, 3))
     with pytest.raises(InputError) as e:
-        feed_bound(model, 0.5 * zero.max(), 0.01, np.ones((model.n, 6)), np.full(6, 10.0),
-                   positions=positions)
+        feed_bound(BoundInputs(model, 0.5 * zero.max(), 0.01, np.ones((model.n, 6)),
+                               np.full(6, 10.0), positions=positions))
     msg = str(e.value)
     assert "edge forces alone" in msg and "sample" in msg
     assert f"{zero.max() * 1e3:.4g} mm" in msg

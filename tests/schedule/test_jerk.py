@@ -12,9 +12,8 @@ from feedopt.errors import InputError
 from feedopt.schedule.checks import check_timing
 from feedopt.schedule.jerk import _reach, _sections, plan_jerk
 from feedopt.schedule.quintic import scurve_distance
+from feedopt.units import MM
 from tests.schedule.conftest import ramp_problem, wave_problem
-
-MM = 1e-3
 
 
 def _line(v_max, length=0.3, **kw):
@@ -57,7 +56,7 @@ def test_sections_respect_tolerance():
 def test_single_section_equals_ruckig():
     p = _line(np.full(1001, 4 * MM), v_start=1 * MM, v_end=0.5 * MM)
     tr = plan_jerk(p)
-    assert tr.stats["n_sections"] == 1
+    assert tr.stats.n_sections == 1
     inp = ruckig.InputParameter(1)
     inp.current_position, inp.current_velocity, inp.current_acceleration = [0.0], [1e-3], [0.0]
     inp.target_position, inp.target_velocity, inp.target_acceleration = [0.3], [5e-4], [0.0]

@@ -6,11 +6,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from feedopt.schedule.polynomial import quintic_hermite
 from feedopt.schedule.quintic import (
     QuinticPieces,
     fit_length,
     ppoly_from_jerk_phases,
-    quintic_coefficients,
     quintic_ramp_duration,
     scurve_distance,
     scurve_times,
@@ -36,7 +36,7 @@ def test_coefficients_solve_eq_3_22(h, v0, vf, a0, af, T):
         ]
     )
     want = np.linalg.solve(M, [0.0, h, v0, vf, a0, af])
-    got = quintic_coefficients(h, v0, vf, a0, af, T)[::-1, 0]
+    got = quintic_hermite(T, h, v0, vf, a0, af)[::-1, 0]
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * np.abs(want).max())
 
 
@@ -46,7 +46,7 @@ def test_blend_dip_closed_form():
     for v0, vf in [(4.0, 2.75), (2.75, 4.0), (3.0, 3.0), (5.0, 2.0)]:
         h = 20.0
         T = h / min(v0, vf)
-        c = quintic_coefficients(h, v0, vf, 0.0, 0.0, T)[:, 0]
+        c = quintic_hermite(T, h, v0, vf, 0.0, 0.0)[:, 0]
         t = np.linspace(0, T, 200001)
         v = np.polyval(np.polyder(c), t)
         lo, hi = min(v0, vf), max(v0, vf)
@@ -63,7 +63,7 @@ def test_ramp_duration_meets_limits(v0, v1):
     if abs(v1 - v0) < 1e-9:  # (T^5 underflows for denormal feed changes)
         assert T < 1e-4
         return
-    c = quintic_coefficients(0.5 * (v0 + v1) * T, v0, v1, 0.0, 0.0, T)[:, 0]
+    c = quintic_hermite(T, 0.5 * (v0 + v1) * T, v0, v1, 0.0, 0.0)[:, 0]
     t = np.linspace(0, T, 4001)
     a = np.abs(np.polyval(np.polyder(c, 2), t)).max()
     j = np.abs(np.polyval(np.polyder(c, 3), t)).max()

@@ -8,10 +8,9 @@ import pytest
 
 from feedopt.errors import InputError
 from feedopt.schedule.checks import check_timing
-from feedopt.schedule.thesis import plan_thesis
+from feedopt.schedule.thesis import ThesisOptions, plan_thesis
+from feedopt.units import MM
 from tests.schedule.conftest import ramp_problem, wave_problem
-
-MM = 1e-3
 
 
 def _benign_wave(n=3001):
@@ -34,9 +33,10 @@ def test_chapter3_blends_follow_eq_3_22_and_lines_keep_their_feeds():
     chk = check_timing(tr, p)
     assert chk.ok, chk.problems
     # down lines 4.0, up lines 2.75 mm/s: the largest feed meeting the bound on each line
-    feeds = [f[3] for f in tr.stats["stretch_feeds_mm_s"]]
+    feeds = [f[3] for f in tr.stats.stretch_feeds_mm_s]
     np.testing.assert_allclose(feeds, [4.0, 2.75, 4.0, 2.75], rtol=1e-12)
     assert not any("lowered" in n for n in tr.notes)
+    assert not tr.stats.lowered and not tr.stats.ramp_fits and not tr.stats.exceeds_bound
     d1, d2 = tr.timing.derivative(1), tr.timing.derivative(2)
     line = [4.0 * MM, 2.75 * MM, 4.0 * MM, 2.75 * MM]
     for i, (a, b, (t0, t1)) in enumerate(_blend_times(tr, p)):
@@ -54,18 +54,21 @@ def test_chapter3_blends_follow_eq_3_22_and_lines_keep_their_feeds():
 
 def test_chapter3_lowers_feeds_where_the_blend_would_exceed_the_bound():
     p = wave_problem()
-    pure = plan_thesis(p, lower_feeds=False)
+    pure = plan_thesis(p, ThesisOptions(lower_feeds=False))
     chk_pure = check_timing(pure, p)
     assert chk_pure.feed_ratio > 1.2  # the thesis construction exceeds v_max in the blends
-    assert any("exceeds v_max" in n for n in pure.notes)
+    assert any("exceeds v_max" in n for n in pure.notes) and pure.stats.exceeds_bound
     tr = plan_thesis(p)
     chk = check_timing(tr, p)
     assert chk.ok, chk.problems
     assert chk.c2 and chk.accel_jump < 1e-12
-    assert chk.max_jerk <= p.jerk_max and chk.max_jerk == pytest.approx(tr.stats["max_jerk_m_s3"])
-    feeds = [f[3] for f in tr.stats["stretch_feeds_mm_s"]]
+    assert chk.max_jerk <= p.jerk_max and chk.max_jerk == pytest.approx(tr.stats.max_jerk_m_s3)
+    feeds = [f[3] for f in tr.stats.stretch_feeds_mm_s]
     assert feeds[0] > feeds[1] and feeds[2] > feeds[3]  # down lines faster than up lines
     assert sum("lowered" in n for n in tr.notes) == 4
+    # ... and as typed outcomes: the four lines around the three blends, by up to a few %
+    assert [low.kind for low in tr.stats.lowered] == ["line"] * 4 and not tr.stats.ramp_fits
+    assert all(0 < low.max_drop < 0.5 for low in tr.stats.lowered)
     # lowering both ends of a blend by one factor scales its quintic feed (closed form):
     # the binding blend touches its bound to the lowering margin
     assert 1 - 1e-8 < chk.feed_ratio <= 1.0
@@ -91,7 +94,7 @@ def test_chapter4_key_points_hand_off_and_dip():
     # The hand-off holds except where the law restarted its undamped recursion (af = 0),
     # which it counts and notes.
     restarted = (a[inner + 1] == 0.0) & (np.abs(2 * abar - a[inner]) > 1e-12)
-    assert restarted.sum() <= tr.stats["handoff_resets"] <= 3
+    assert restarted.sum() <= tr.stats.handoff_resets <= 3
     ok = ~restarted
     np.testing.assert_allclose(a[inner + 1][ok], (2 * abar - a[inner])[ok], atol=1e-12)
     # key-point feed = min of v_max over the neighbouring intervals (where not lowered)

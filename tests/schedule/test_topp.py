@@ -9,11 +9,12 @@ from feedopt.errors import InputError
 from feedopt.schedule.checks import check_timing
 from feedopt.schedule.topp import (
     SampledJointPath,
+    ToppOptions,
     grid_bounds,
     limit_acceleration,
     plan_topp,
-    quintic_hermite_coefficients,
 )
+from feedopt.units import MM_PER_M
 from tests.schedule.conftest import ramp_problem, wave_problem
 
 
@@ -35,8 +36,8 @@ def test_topp_respects_bound_on_fine_samples_and_is_near_lower_bound(make):
 def test_coarse_grid_still_meets_bound_between_gridpoints():
     # the issue's pitfall: a bound imposed only at 200 gridpoints was exceeded by 12 %
     problem = wave_problem(6001)
-    traj = plan_topp(problem, max_gridpoints=200)
-    assert traj.stats["gridpoints"] == 200
+    traj = plan_topp(problem, ToppOptions(max_gridpoints=200))
+    assert traj.stats.gridpoints == 200
     check = check_timing(traj, problem)
     assert check.feed_ratio <= 1 + 1e-9
     assert check.ok, check.problems
@@ -56,7 +57,7 @@ def test_topp_equals_the_analytic_time_optimal_profile():
     # joint limits inactive: the time-optimal profile under a feed bound and |sddot| <= A is
     # the largest 2A-Lipschitz sdot^2 under the bound (a closed form independent of toppra)
     problem = ramp_problem(401, accel_max=0.002)
-    traj = plan_topp(problem, use_joint_limits=False)
+    traj = plan_topp(problem, ToppOptions(use_joint_limits=False))
     grid = np.arange(problem.n)
     _, v_node = grid_bounds(problem.v_max, grid)
     x_ref = _brute_force_profile(problem.s, v_node, problem.accel_max, 0.0, 0.0)
@@ -80,7 +81,7 @@ def test_boundary_feeds_are_met():
 def test_active_joint_acceleration_limit_is_respected_on_the_samples():
     # small joint acceleration limits bind (mostly through q' sddot)
     problem = wave_problem(2001, joint_acceleration_max=np.full(6, 3.0e-3))
-    free = plan_topp(problem, use_joint_limits=False)
+    free = plan_topp(problem, ToppOptions(use_joint_limits=False))
     assert check_timing(free, problem).joint_acceleration_ratio > 1.05  # it does bind
     traj = plan_topp(problem)
     check = check_timing(traj, problem)
@@ -116,25 +117,11 @@ def test_grid_bounds_match_a_loop():
         assert node[k] == np.min(interval[max(k - 1, 0) : k + 1])
 
 
-def test_quintic_hermite_matches_end_conditions():
-    rng = np.random.default_rng(1)
-    h = rng.uniform(0.1, 2.0, 5)
-    ends = rng.normal(size=(6, 5))
-    c = quintic_hermite_coefficients(h, *ends)
-    for k in range(5):
-        poly = np.poly1d(c[:, k])
-        for order, (y0, y1) in enumerate([(ends[0], ends[3]), (ends[1], ends[4]),
-                                          (ends[2], ends[5])]):
-            p = poly.deriv(order) if order else poly
-            assert p(0.0) == pytest.approx(y0[k], abs=1e-9)
-            assert p(h[k]) == pytest.approx(y1[k], abs=1e-9)
-
-
 def test_sampled_joint_path_reproduces_the_samples():
     problem = wave_problem(301)
-    path = SampledJointPath(problem, scale=1e3)
-    s_mm = problem.s * 1e3
+    path = SampledJointPath(problem, scale=MM_PER_M)
+    s_mm = problem.s * MM_PER_M
     np.testing.assert_allclose(path(s_mm), problem.q, atol=1e-12)
-    np.testing.assert_allclose(path(s_mm, 1), problem.dq_ds / 1e3, atol=1e-12)
-    np.testing.assert_allclose(path(s_mm, 2), problem.d2q_ds2 / 1e6, atol=1e-12)
+    np.testing.assert_allclose(path(s_mm, 1), problem.dq_ds / MM_PER_M, atol=1e-12)
+    np.testing.assert_allclose(path(s_mm, 2), problem.d2q_ds2 / MM_PER_M**2, atol=1e-12)
     assert path.dof == 6 and path.path_interval[-1] == pytest.approx(360.0)

@@ -1,0 +1,59 @@
+"""The cell: where the workpiece and its path are in the robot's base frame.
+
+The path is planned in the workpiece frame W (scenario ``workpiece``: origin, roll-pitch-yaw,
+tool axis in W); the robot and the force model need it in the base frame B. This is computed
+once per run (:func:`place_path`) and every stage uses the same :class:`Placement`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.geometry.path import PathPoints
+from feedopt.robot.frames import workpiece_transform
+from feedopt.schedule.deflection import feed_frames
+from feedopt.units import MM
+
+
+@dataclass(frozen=True, eq=False)
+class Placement:
+    """The sampled path in the base frame.
+
+    transform : (4, 4) W -> B [m]; positions (n, 3) TCP positions [m]; tool_axes (n, 3) unit,
+    from the tool tip into the spindle; tangents (n, 3) unit path tangents; frames (n, 3, 3)
+    force-model frame -> B (x feed, z tool axis, Altintas' frame).
+    """
+
+    transform: np.ndarray
+    positions: np.ndarray
+    tool_axes: np.ndarray
+    tangents: np.ndarray
+    frames: np.ndarray
+
+    def to_base(self, points_w: np.ndarray) -> np.ndarray:
+        """Points (m, 3) of the workpiece frame in the base frame [m]."""
+        return points_w @ self.transform[:3, :3].T + self.transform[:3, 3]
+
+
+def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w) -> Placement:
+    """Put the path samples into the base frame; InputError when the tool axis is zero or the
+    path runs along it somewhere (milling needs a feed across the tool axis)."""
+    transform = workpiece_transform(position_mm, rpy_deg)
+    rot = transform[:3, :3]
+    positions = samples.position @ rot.T + transform[:3, 3]
+    axis_w = np.asarray(tool_axis_w, dtype=float)
+    if np.linalg.norm(axis_w) < 1e-12:
+        raise InputError("workpiece.tool_axis must be a non-zero vector")
+    axis = np.broadcast_to(rot @ (axis_w / np.linalg.norm(axis_w)), positions.shape).copy()
+    tangents = samples.tangent @ rot.T
+    along = np.abs(np.sum(tangents * axis, axis=1))
+    if np.any(along > 1 - 1e-6):
+        i = int(np.argmax(along))
+        raise InputError(f"the path runs along the tool axis at sample {i} "
+                         f"(s = {samples.s[i] / MM:.3f} mm): milling needs a feed direction "
+                         "across the tool axis")
+    return Placement(transform=transform, positions=positions, tool_axes=axis,
+                     tangents=tangents, frames=feed_frames(tangents, axis))

@@ -1,0 +1,158 @@
+"""What an exporter is given, and the registry of exporters: the one place a new one goes.
+
+An exporter (RSI CSV, KRL program, and later ABB RAPID, URScript, G-code) is a module with a
+function ``export(job, out_dir) -> dict`` and an :class:`Exporter` entry in :data:`EXPORTERS`
+saying which laws and robots it applies to. The runner builds one :class:`ExportJob` per law
+and calls every exporter whose ``applies`` returns ``None`` (a reason string otherwise, which
+goes into summary.json). Exporters never see the runner's internals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # types only: exporters import this module, it imports no stage
+    from scipy.interpolate import CubicSpline
+
+    from feedopt.geometry.path import Path as GeometricPath
+    from feedopt.robot.model import RobotModel
+    from feedopt.schedule.problem import ScheduleProblem
+    from feedopt.schedule.trajectory import Motion, Trajectory
+    from feedopt.verify import Verification
+
+
+@dataclass(frozen=True)
+class ControllerSamples:
+    """The timing law sampled at the controller cycle, with joint velocities.
+
+    ``jerk`` is the law's own jerk for a C2 law; for a law that is only C1 (toppra) it is
+    the finite difference of the sampled acceleration, i.e. what a controller stepping at
+    this cycle would see, not the zero inside the polynomial pieces.
+    """
+
+    motion: Motion
+    jerk: np.ndarray  # (m,) [m/s^3]
+    joint_velocity: np.ndarray  # (m, dof) [rad/s]
+
+
+def controller_samples(trajectory: Trajectory, cycle: float, q_of_s: CubicSpline,
+                       length: float) -> ControllerSamples:
+    """Sample ``trajectory`` every ``cycle`` seconds (see :class:`ControllerSamples`)."""
+    motion = trajectory.sample_uniform(cycle)
+    jerk = motion.sdddot
+    if trajectory.continuity < 2:
+        jerk = np.gradient(motion.sddot, motion.t) if motion.t.size > 1 else motion.sdddot
+    s = np.clip(motion.s, 0.0, length)
+    qd = q_of_s(s, 1) * motion.sdot[:, None]
+    return ControllerSamples(motion=motion, jerk=jerk, joint_velocity=qd)
+
+
+@dataclass(frozen=True, eq=False)
+class ExportJob:
+    """One law's trajectory and everything an exporter may need to write it.
+
+    Attributes
+    ----------
+    law, scenario_name : names for file headers.
+    trajectory, verification : the planned law and its replay.
+    problem : the schedule problem (samples, segments, limits).
+    robot : the robot (kinematics, controller family).
+    q_of_s : joint path as a cubic spline of arc length [rad].
+    path_in_base : ``s -> (m, 3)`` exact TCP path positions in the base frame [m].
+    samples : the law at the controller cycle.
+    cycle : controller cycle [s].
+    limit_mm : deflection limit for headers.
+    unverified_on_request : written although not exportable (``--export-unverified``).
+    native_program : the law's registry entry asks for a native controller program.
+    blockers : reasons the run already knows an exporter cannot write (``{exporter: why}``).
+    """
+
+    law: str
+    scenario_name: str
+    trajectory: Trajectory
+    verification: Verification
+    problem: ScheduleProblem
+    robot: RobotModel
+    q_of_s: CubicSpline
+    path_in_base: Callable[[np.ndarray], np.ndarray]
+    samples: ControllerSamples
+    cycle: float
+    limit_mm: float
+    unverified_on_request: bool = False
+    native_program: bool = False
+    blockers: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Exporter:
+    """A registered output format.
+
+    ``for_law(job)`` says whether the format is meant for this law at all (the KRL program
+    only for laws with a native program); ``early_check(robot, path)`` runs before any
+    planning and returns the reason the exporter will not be able to write for this run
+    (wrong controller, a size cap), which is printed at once, kept in summary.json and costs
+    no other export; ``export(job, out_dir)`` writes and returns the summary entries it adds
+    (file names, figures such as the FK error). ``file_pattern`` documents the file it writes
+    (``{law}`` is replaced by the law name).
+    """
+
+    name: str
+    file_pattern: str
+    description: str
+    export: Callable[[ExportJob, Path], dict]
+    for_law: Callable[[ExportJob], bool] = lambda job: True
+    early_check: Callable[[RobotModel, GeometricPath], str | None] = lambda robot, path: None
+
+
+EXPORTERS: dict[str, Exporter] = {}
+
+
+def register_exporter(exporter: Exporter) -> Exporter:
+    """Add ``exporter`` to :data:`EXPORTERS` (ValueError for a name already registered)."""
+    if exporter.name in EXPORTERS:
+        raise ValueError(f"exporter {exporter.name!r} is already registered")
+    EXPORTERS[exporter.name] = exporter
+    return exporter
+
+
+def early_blockers(robot: RobotModel, path: GeometricPath) -> dict[str, str]:
+    """``{exporter: reason}`` for every exporter that cannot write for this robot and path."""
+    out = {}
+    for exporter in EXPORTERS.values():
+        reason = exporter.early_check(robot, path)
+        if reason is not None:
+            out[exporter.name] = reason
+    return out
+
+
+def run_exporters(job: ExportJob, out_dir: Path) -> dict:
+    """Every registered exporter meant for ``job``'s law; the summary entries they add.
+
+    An exporter blocked for this run (:func:`early_blockers`) writes nothing and records
+    ``<name>_program: None`` and ``<name>_not_written: reason``.
+    """
+    entry: dict = {}
+    for exporter in EXPORTERS.values():
+        if not exporter.for_law(job):
+            continue
+        reason = job.blockers.get(exporter.name)
+        if reason is None:
+            entry.update(exporter.export(job, out_dir))
+        else:
+            entry[f"{exporter.name}_program"] = None
+            entry[f"{exporter.name}_not_written"] = reason
+    return entry
+
+
+def status_line(job: ExportJob) -> str:
+    """Header line every export starts with: the law, the scenario and its verdict."""
+    ver = job.verification
+    status = ("VERIFIED" if ver.exportable
+              else "NOT EXPORTABLE, written on request (--export-unverified): "
+              + "; ".join(ver.export_blockers + ver.problems))
+    return f"feedopt {job.law} trajectory for scenario {job.scenario_name}: {status}"

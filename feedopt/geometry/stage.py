@@ -1,0 +1,74 @@
+"""The geometry stage of a scenario run: the scenario's path section -> :class:`Path`.
+
+The section is duck-typed (the attributes of ``feedopt.scenario.PathSection``: generator,
+length_mm, height_mm, waves, start_mm, end_mm, file, z_mm, blend, blend_size_mm,
+drop_repeated_waypoints), in the scenario's user units (mm); geometry does not import the
+scenario module.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path as FilePath
+from typing import Any
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.geometry.path import Path, build_lipb_path
+from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
+from feedopt.geometry.waypoints import read_waypoints_csv
+from feedopt.units import MM
+
+#: what the refusal of repeated waypoints suggests in a scenario
+SCENARIO_REPEAT_HINT = "set path.drop_repeated_waypoints: true"
+Resolver = Callable[[FilePath, str, str], FilePath]
+
+
+def resolve_file(base: FilePath, relative: str, what: str) -> FilePath:
+    """A file named in a scenario, relative to ``base`` unless absolute; InputError if it
+    does not exist (the message of ``feedopt.scenario.resolve``)."""
+    p = FilePath(relative)
+    p = p if p.is_absolute() else base / p
+    if not p.exists():
+        raise InputError(f"{what} not found: {relative} (looked for {p})")
+    return p
+
+
+def waypoints_from_section(section: Any, base_dir: FilePath,
+                           resolve: Resolver = resolve_file) -> np.ndarray:
+    """Waypoints (n, 3) [m] in the workpiece frame: the generated wave (lifted to ``z_mm``),
+    the line, or the CSV file ``section.file`` resolved against ``base_dir``."""
+    gen = section.generator
+    if gen == "triangle_wave":
+        w = triangle_wave(section.length_mm * MM, section.height_mm * MM, section.waves)
+    elif gen == "square_wave":
+        w = square_wave(section.length_mm * MM, section.height_mm * MM, section.waves)
+    elif gen == "line":
+        w = straight_line(np.asarray(section.start_mm) * MM, np.asarray(section.end_mm) * MM)
+    elif gen == "csv":
+        w = read_waypoints_csv(resolve(base_dir, section.file, "path.file (waypoint CSV)"))
+    else:
+        raise InputError(f"path.generator {gen!r} is not one of triangle_wave, square_wave, "
+                         "line, csv")
+    w = np.array(w, dtype=float)
+    if gen in ("triangle_wave", "square_wave"):
+        w[:, 2] += section.z_mm * MM
+    return w
+
+
+def path_from_section(section: Any, base_dir: FilePath, *,
+                      resolve: Resolver = resolve_file) -> Path:
+    """The scenario's path (:func:`~feedopt.geometry.path.build_lipb_path` of its waypoints
+    with its blend); every geometry error is prefixed with the section, e.g.
+    ``path (csv, blend circle 12.7 mm): ...``, and the repeated-waypoint refusal points at
+    ``path.drop_repeated_waypoints``. The path's ``dropped_waypoints`` lists the waypoints it
+    dropped."""
+    try:
+        return build_lipb_path(waypoints_from_section(section, base_dir, resolve),
+                               section.blend, section.blend_size_mm * MM,
+                               drop_repeated=section.drop_repeated_waypoints,
+                               repeat_hint=SCENARIO_REPEAT_HINT)
+    except InputError as exc:
+        raise InputError(f"path ({section.generator}, blend {section.blend} "
+                         f"{section.blend_size_mm:g} mm): {exc}") from None

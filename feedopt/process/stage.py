@@ -1,0 +1,110 @@
+"""The process stage of a run: tool, cutting coefficients and engagement along the path.
+
+:func:`process_along_path` is what the runner calls; it takes the scenario's ``tool``,
+``material`` and ``cut`` entries (files resolved against the scenario's folder) and the
+sampled path, and says what the run should know (tight path radii, feeds per tooth outside
+the calibrated range) as warnings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.process.coefficients import (
+    CoefficientTable,
+    CuttingCoefficients,
+    feed_per_tooth_warning,
+    load_coefficients,
+)
+from feedopt.process.engagement import (
+    Engagement,
+    peripheral_engagement,
+    radial_depth_profile,
+    slot_engagement,
+)
+from feedopt.process.path_radius import check_path_radius
+from feedopt.process.tool import Tool, load_tool
+from feedopt.units import MM
+
+
+@dataclass(frozen=True, eq=False)
+class ProcessAlongPath:
+    """Tool, coefficients (all speeds, and at the spindle speed), per-sample engagement."""
+
+    tool: Tool
+    table: CoefficientTable
+    coefficients: CuttingCoefficients
+    engagement: Engagement
+    warnings: tuple[str, ...]
+
+
+def engagement_of(cut, tool: Tool, s: np.ndarray) -> Engagement:
+    """Per-sample engagement from the scenario's ``cut`` section (stated by hand)."""
+    depth = cut.axial_depth_mm * MM
+    if depth > tool.flute_length:
+        raise InputError(
+            f"cut.axial_depth_mm = {cut.axial_depth_mm:g} mm exceeds the flute length "
+            f"{tool.flute_length / MM:g} mm of tool '{tool.name}'"
+        )
+    if cut.type == "slot":
+        return slot_engagement(s.size, depth)
+    try:
+        return _peripheral(cut, tool, s, depth)
+    except InputError as exc:
+        field = ("cut.radial_depth_profile" if cut.radial_depth_profile is not None
+                 else "cut.radial_depth_mm")
+        raise InputError(f"{field}: {exc}") from None
+
+
+def _peripheral(cut, tool: Tool, s: np.ndarray, depth: float) -> Engagement:
+    if cut.radial_depth_profile is not None:
+        prof = cut.radial_depth_profile
+        table_s = (np.asarray(prof.s_mm) * MM if prof.s_mm is not None
+                   else np.asarray(prof.s_fraction) * s[-1])
+        radial = radial_depth_profile(s, table_s, np.asarray(prof.depth_mm) * MM)
+    else:
+        radial = np.full(s.size, cut.radial_depth_mm * MM)
+    return peripheral_engagement(radial, tool.diameter, depth, cut.milling)
+
+
+def seconds_per_tooth(rpm: float, tool: Tool) -> float:
+    """Time between two teeth [s]: feed per tooth = feed * this."""
+    return 1.0 / (rpm / 60.0 * tool.teeth)
+
+
+def feed_range_warnings(table: CoefficientTable, feeds: list[tuple[str, float]], rpm: float,
+                        tool: Tool) -> list[str]:
+    """Warnings for named feeds [m/s] whose feed per tooth leaves the calibrated range."""
+    out = []
+    for what, v in feeds:
+        text = feed_per_tooth_warning(table, v * seconds_per_tooth(rpm, tool))
+        if text:
+            out.append(f"{what} ({v / MM:.4g} mm/s): {text}")
+    return out
+
+
+def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
+                       segment_names: list[str]) -> ProcessAlongPath:
+    """Load the tool and material of ``scenario`` and state the engagement of every sample.
+
+    ``resolve(relative, what)`` finds a file named in the scenario. ``samples`` is the
+    sampled path (:class:`feedopt.geometry.path.PathPoints`).
+    """
+    cut, feed = scenario.cut, scenario.feed
+    tool = load_tool(resolve(scenario.tool, "tool file"))
+    table = load_coefficients(resolve(scenario.material, "material file"))
+    coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
+    engagement = engagement_of(cut, tool, samples.s)
+    warnings = check_path_radius(samples.s, samples.curvature, samples.segment, segment_names,
+                                 0.5 * tool.diameter)
+    feeds = [("feed.nominal_mm_s", feed.nominal_mm_s * MM)]
+    if feed.max_mm_s is not None:
+        feeds.append(("feed.max_mm_s", feed.max_mm_s * MM))
+    warnings += feed_range_warnings(table, feeds, cut.spindle_rpm, tool)
+    return ProcessAlongPath(tool=tool, table=table, coefficients=coefficients,
+                            engagement=engagement, warnings=tuple(warnings))

@@ -1,0 +1,42 @@
+"""The report of one run, assembled from the stages' results (the runner only calls this)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.report.data import LawSeries, ReportData, law_series_from_si
+from feedopt.units import MM
+
+
+def law_series(law: str, s: np.ndarray, verification, samples) -> LawSeries:
+    """One law's curves: the replay on the path samples and the law at the controller cycle
+    (``samples``: :class:`feedopt.export.job.ControllerSamples`)."""
+    ver, motion = verification, samples.motion
+    return law_series_from_si(
+        law, s, ver.feed, ver.deflection, motion.t, motion.sdot, motion.sddot, samples.jerk,
+        samples.joint_velocity, verified=ver.verified,
+        notes=list(ver.problems) + [f"not exported: {b}" for b in ver.export_blockers]
+        + list(ver.warnings),
+    )
+
+
+def write_run_report(out_dir: Path, scenario_name: str, summary: dict, positions: np.ndarray,
+                     sample_segment: np.ndarray, problem, series: list[LawSeries],
+                     limit_mm: float) -> None:
+    """report.md / report.html and their figures for one run."""
+    from feedopt.report.html import write_report
+
+    kinds = np.asarray(problem.segment_kind or ("line",))
+    seg = np.asarray(sample_segment)
+    data = ReportData(
+        scenario=scenario_name,
+        summary=summary,
+        path_xyz_mm=positions / MM,
+        segment_kind=kinds[seg] if kinds.size > 1 else np.full(seg.size, kinds[0]),
+        laws=tuple(series),
+        joint_velocity_limit_deg_s=np.rad2deg(problem.joint_velocity_max),
+        deflection_limit_mm=limit_mm,
+    )
+    write_report(out_dir, data)

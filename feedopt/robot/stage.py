@@ -1,0 +1,128 @@
+"""The robot stage along a sampled path: joint path, compliance and q(s), in one call.
+
+What the runner needs from the robot for a path sampled at arc lengths ``s``: the joint path
+(:func:`feedopt.robot.ik.solve_path_ik`), the translational TCP compliance at every sample
+(thesis Eq. 3.19, DPP Eq. 3.20; the complementary stiffness of Eq. 3.18 is neglected, thesis
+3.4) and the joints as a cubic spline in ``s`` with its first two derivatives at the samples
+(for the joint-velocity bound and the joint limits of the timing laws).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from feedopt.errors import InputError
+from feedopt.robot.ik import IKOptions, PathIK, solve_path_ik
+from feedopt.robot.model import RobotModel
+from feedopt.robot.stiffness import translational_compliance
+
+
+@dataclass(frozen=True)
+class RobotAlongPath:
+    """The robot along a sampled path (SI units, base frame).
+
+    Attributes
+    ----------
+    ik : PathIK
+        Joint path ``ik.q`` (n, dof) [rad] with condition numbers and residuals per sample.
+    compliance : (n, 3, 3) array
+        Translational TCP compliance [m/N]: deflection per force on the tool at the TCP,
+        ``C = (J K^-1 J^T)[:3, :3]`` (Eq. 3.19; Eq. 3.20 with the DPP set).
+    q_of_s : CubicSpline
+        ``q(s)`` through the samples (axis 0; not-a-knot ends) [rad] of arc length [m].
+    dq_ds, d2q_ds2 : (n, dof) arrays
+        ``q'(s)`` [rad/m] and ``q''(s)`` [rad/m^2] of ``q_of_s`` at the samples.
+    warnings : tuple of str
+        The robot's data warnings (``robot.yaml`` ``warnings:``), each prefixed with
+        ``robot <name>: `` as the run reports them.
+    """
+
+    ik: PathIK
+    compliance: np.ndarray
+    q_of_s: CubicSpline
+    dq_ds: np.ndarray
+    d2q_ds2: np.ndarray
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint configurations (n, dof) [rad] (``ik.q``)."""
+        return self.ik.q
+
+    @property
+    def max_condition_number(self) -> float:
+        """Largest Jacobian condition number along the path (1 m length scale)."""
+        return float(np.max(self.ik.condition_number))
+
+
+def _arc_lengths(s: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """``s`` as strictly increasing finite arc lengths, one per position, or InputError."""
+    s = np.asarray(s, dtype=float)
+    n = np.shape(positions)[0] if np.ndim(positions) == 2 else s.size  # else: IK refuses
+    if s.shape != (n,):
+        raise InputError(f"s must have shape ({n},) like positions, got {s.shape}")
+    if n < 2:
+        raise InputError(f"the path needs at least 2 samples for q(s), got {n}")
+    if not np.all(np.isfinite(s)) or np.any(np.diff(s) <= 0):
+        bad = np.flatnonzero(~np.isfinite(s))
+        k = int(bad[0]) if bad.size else int(np.flatnonzero(np.diff(s) <= 0)[0]) + 1
+        raise InputError(f"s must be finite and strictly increasing; sample {k} is not "
+                         f"(s = {s[k]!r})")
+    return s
+
+
+def robot_along_path(
+    robot: RobotModel,
+    s: np.ndarray,
+    positions: np.ndarray,
+    tool_axes: np.ndarray,
+    q_start: np.ndarray,
+    stiffness_set: str | np.ndarray,
+    x_axes: np.ndarray | None = None,
+    ik_options: IKOptions | None = None,
+) -> RobotAlongPath:
+    """Solve the robot stage along a sampled path.
+
+    Parameters
+    ----------
+    robot : RobotModel
+    s : (n,) array
+        Arc length of the samples [m], strictly increasing.
+    positions : (n, 3) array
+        TCP positions in the base frame [m].
+    tool_axes : (n, 3) array
+        Tool axes in the base frame (TCP +z, from the tool tip into the spindle).
+    q_start : (dof,) array
+        Start configuration [rad]; seeds the IK of the first sample.
+    stiffness_set : str or (dof,) array
+        Joint stiffness set name (``"cp"``, ``"dpp"``) or values [N m/rad].
+    x_axes : (n, 3) array or None
+        TCP +x directions (6-DoF task); ``None``: rotation about the tool axis free (5-DoF).
+    ik_options : IKOptions or None
+        IK tunables; ``None``: the defaults.
+
+    Returns
+    -------
+    RobotAlongPath
+
+    Raises
+    ------
+    InputError
+        Bad shapes or arc lengths, an unknown stiffness set, or a path sample the IK refuses
+        (unreachable, joint limit, branch flip, near-singular; named by index and pose).
+    """
+    s = _arc_lengths(s, positions)
+    ik = solve_path_ik(robot, positions, tool_axes, q_start, x_axes=x_axes, options=ik_options)
+    compliance = translational_compliance(robot, ik.q, stiffness_set)
+    q_of_s = CubicSpline(s, ik.q, axis=0)
+    return RobotAlongPath(
+        ik=ik,
+        compliance=compliance,
+        q_of_s=q_of_s,
+        dq_ds=q_of_s(s, 1),
+        d2q_ds2=q_of_s(s, 2),
+        warnings=tuple(f"robot {robot.name}: {w}" for w in robot.data_warnings),
+    )

@@ -1,0 +1,91 @@
+"""The schedule stage of a run up to the timing laws: deflection model, feed bound, problem.
+
+:func:`schedule_problem` is what the runner calls: it turns the process (forces), the robot
+(compliance, joint path) and the scenario's limits into the deflection model, the feed bound
+v_max(s) (:mod:`feedopt.schedule.bounds`) and the :class:`ScheduleProblem` every law gets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from feedopt.schedule.bounds import BoundInputs, FeedBound, feed_bound
+from feedopt.schedule.checks import check_boundary_feeds
+from feedopt.schedule.deflection import DeflectionModel
+from feedopt.schedule.problem import ScheduleProblem
+from feedopt.units import MM
+
+
+@dataclass(frozen=True, eq=False)
+class ScheduleInputs:
+    """The deflection model, the feed bound and the problem handed to every law."""
+
+    model: DeflectionModel
+    bound: FeedBound
+    problem: ScheduleProblem
+    limit: float  # deflection limit [m]
+
+
+def angle_grid(teeth: int, step_deg: float) -> np.ndarray:
+    """Uniform cutter angles over one tooth pitch (the forces repeat every pitch) [rad]."""
+    step = np.deg2rad(step_deg)
+    pitch = 2.0 * np.pi / teeth
+    return np.arange(0.0, pitch - 1e-12, step)
+
+
+def schedule_problem(scenario, process, robot, along, placement, samples,
+                     path) -> ScheduleInputs:
+    """Build the deflection model, v_max(s) and the schedule problem of ``scenario``.
+
+    ``process`` is a :class:`feedopt.process.stage.ProcessAlongPath`, ``robot`` a
+    :class:`feedopt.robot.model.RobotModel`, ``along`` the robot along the path
+    (:func:`feedopt.robot.stage.robot_along_path`), ``placement`` the
+    :class:`feedopt.cell.Placement`, ``samples`` the sampled path, ``path`` the path.
+    """
+    limits, feed, sched = scenario.limits, scenario.feed, scenario.schedule
+    defl = scenario.deflection
+    model = DeflectionModel(
+        tool=process.tool,
+        coefficients=process.coefficients,
+        engagement=process.engagement,
+        angles=angle_grid(process.tool.teeth, sched.angle_step_deg),
+        frames=placement.frames,
+        compliance=along.compliance,
+        rpm=scenario.cut.spindle_rpm,
+        mode=defl.mode,
+        direction=np.asarray(defl.direction, dtype=float) if defl.direction is not None else None,
+        axial_slices=sched.axial_slices,
+    )
+    limit = defl.limit_mm * MM
+    max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
+    qd_max = robot.joint_velocity_max * limits.joint_velocity_scale
+    qdd_max = robot.joint_acceleration_max * limits.joint_acceleration_scale
+    dq_ds = along.q_of_s(samples.s, 1)
+    bound = feed_bound(BoundInputs(
+        model=model, limit=limit, max_feed=max_feed, dq_ds=dq_ds, joint_velocity_max=qd_max,
+        torque_max=limits.spindle_torque_nm, power_max=limits.spindle_power_w,
+        positions=placement.positions,
+    ))
+    problem = ScheduleProblem(
+        s=samples.s,
+        v_max=bound.v_max,
+        q=along.ik.q,
+        dq_ds=dq_ds,
+        d2q_ds2=along.q_of_s(samples.s, 2),
+        joint_velocity_max=qd_max,
+        joint_acceleration_max=qdd_max,
+        accel_max=limits.tangential_acceleration_mm_s2 * MM,
+        jerk_max=limits.tangential_jerk_mm_s3 * MM,
+        nominal_feed=feed.nominal_mm_s * MM,
+        v_start=feed.start_mm_s * MM,
+        v_end=feed.end_mm_s * MM,
+        segment_start=path.segment_start,
+        segment_kind=path.segment_kind,
+        key_point_spacing=sched.key_point_spacing_mm * MM,
+    )
+    # Once, before any law, naming the scenario's fields (every law repeats it for itself).
+    check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),
+                         who="feed")
+    return ScheduleInputs(model=model, bound=bound, problem=problem, limit=limit)

@@ -1,0 +1,32 @@
+"""Fixtures shared across the test packages."""
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ROOT / "scenarios"
+
+
+@pytest.fixture
+def quick_scenario(tmp_path) -> Callable[..., Path]:
+    """Write a bundled scenario into ``tmp_path`` with absolute file paths and overrides.
+
+    ``quick_scenario("linear_peripheral", path__spacing_mm=2.0)`` sets ``path.spacing_mm``.
+    """
+
+    def write(name: str = "linear_peripheral", **changes) -> Path:
+        doc = yaml.safe_load((SCENARIOS / f"{name}.yaml").read_text())
+        doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+        doc["tool"] = str(SCENARIOS / doc["tool"])
+        doc["material"] = str(SCENARIOS / doc["material"])
+        for dotted, value in changes.items():
+            section, key = dotted.split("__")
+            doc.setdefault(section, {})[key] = value
+        p = tmp_path / f"{name}.yaml"
+        p.write_text(yaml.safe_dump(doc))
+        return p
+
+    return write
