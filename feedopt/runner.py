@@ -143,6 +143,12 @@ def prepare(
     path = path_from_section(scenario.path, base_dir)
     samples = _sample(path, spacing)
     warnings = scenario_warnings(scenario)
+    if path.dropped_waypoints:
+        shown = ", ".join(str(i) for i in path.dropped_waypoints[:10])
+        more = len(path.dropped_waypoints) - 10
+        warnings.append(f"path: dropped {len(path.dropped_waypoints)} repeated waypoint(s) "
+                        f"(indices {shown}{f' and {more} more' if more > 0 else ''}), as "
+                        "path.drop_repeated_waypoints asks")
     times["geometry"] = time.perf_counter() - t0
     progress(f"[1/5] geometry: {len(path.segments)} segments, {path.length / MM:.2f} mm, "
              f"{samples.s.size} samples ({times['geometry']:.2f} s)")

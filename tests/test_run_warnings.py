@@ -76,3 +76,14 @@ def test_krl_segment_cap_skips_krl_only_and_is_said_up_front(
     assert "more than the 5" in result.summary["laws"]["thesis"]["krl_not_written"]
     assert (tmp_path / "out" / "thesis.csv").is_file() and (tmp_path / "out" / "jerk.csv").is_file()
     assert not (tmp_path / "out" / "thesis.src").exists()
+
+
+def test_dropped_waypoints_are_said(tmp_path, quick_scenario) -> None:
+    csv = tmp_path / "w.csv"
+    csv.write_text("x_mm,y_mm,z_mm\n0,0,0\n60,0,0\n60,0,0\n60,60,0\n")
+    p = quick_scenario("triangle_slot", path__generator="csv", path__file=str(csv),
+                       path__drop_repeated_waypoints=True, path__spacing_mm=2.0,
+                       schedule__laws=["jerk"])
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
+    assert any("dropped 1 repeated waypoint(s) (indices 2)" in w
+               for w in result.summary["warnings"])
