@@ -2,7 +2,8 @@
 
 Every module in ``feedopt.commands`` exposes ``add_parser(subparsers)``, which registers one
 subcommand whose ``func(args) -> int`` does the work. This module owns the exit codes:
-0 ok, 2 bad input (:class:`feedopt.errors.InputError`, argparse errors), 1 internal error.
+0 ok, 2 bad input (:class:`feedopt.errors.InputError`, argparse errors), 1 internal error,
+128 + N when stopped by signal N (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP), as shells report it.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _terminate(signum: int, _frame: object) -> None:
     # One is enough: ignore repeats while the unwinding cleans up.
     signal.signal(signum, signal.SIG_IGN)
-    raise Terminated(signal.Signals(signum).name)
+    raise Terminated(signal.Signals(signum).name, signum)
 
 
 def _install_signal_handlers() -> dict[int, object]:
@@ -94,11 +95,11 @@ def _dispatch(args: argparse.Namespace) -> int:
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the flush at exit
         return 0
     except KeyboardInterrupt:
-        print("feedopt: interrupted; nothing was written", file=sys.stderr)
-        return 1
+        print("feedopt: interrupted (SIGINT); nothing was written", file=sys.stderr)
+        return 128 + signal.SIGINT
     except Terminated as exc:
-        print(f"feedopt: stopped by {exc.signal_name}; nothing was written", file=sys.stderr)
-        return 1
+        print(f"feedopt: terminated ({exc.signal_name}); nothing was written", file=sys.stderr)
+        return 128 + exc.signal_number
     except Exception as exc:  # noqa: BLE001 - the one place that turns bugs into exit code 1
         if args.debug:
             traceback.print_exc()

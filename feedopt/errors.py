@@ -21,6 +21,7 @@ class Terminated(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an 
     swallows it and every ``finally`` on the way out runs.
     """
 
-    def __init__(self, signal_name: str) -> None:
+    def __init__(self, signal_name: str, signal_number: int) -> None:
         super().__init__(signal_name)
         self.signal_name = signal_name
+        self.signal_number = signal_number

@@ -37,6 +37,10 @@ from feedopt.verify import Verdict, Verification, is_finite, replay_all
 
 # Largest number of path samples a run plans (memory: ~2 kB per sample across the stages).
 MAX_SAMPLES = 2_000_000
+# Largest number of controller cycles one exported trajectory may have: 11 h at 4 ms, about
+# 2.5 GB of RSI CSV (~250 bytes per row). Checked on T* before planning and per law after.
+MAX_CONTROLLER_ROWS = 10_000_000
+_BYTES_PER_ROW = 250
 Progress = Callable[[str], None]
 
 
@@ -127,6 +131,21 @@ def _sample(path: ToolPath, spacing: float) -> PathPoints:
     return path.sample(spacing)
 
 
+def _rows(duration: float, cycle: float) -> float:
+    return duration / cycle + 1
+
+
+def _check_output_size(lower_bound_time: float, cycle: float) -> None:
+    """InputError before planning when even the fastest law would write too many rows."""
+    rows = _rows(lower_bound_time, cycle)
+    if rows > MAX_CONTROLLER_ROWS:
+        raise InputError(
+            f"the fastest trajectory the feed bound allows lasts {lower_bound_time:.4g} s, "
+            f"{rows:.3g} RSI cycles of {cycle / MS:g} ms (about {rows * _BYTES_PER_ROW / 1e9:.3g} "
+            f"GB of CSV per law); at most {MAX_CONTROLLER_ROWS:.0e} cycles are exported: split "
+            "the job, or check the feed (a feed far below the nominal makes long jobs)")
+
+
 def prepare(
     scenario: Scenario,
     base_dir: Path,
@@ -183,6 +202,7 @@ def prepare(
     warnings += feed_range_warnings(process.table, [
         ("the lowest feed of the bound", float(np.min(v_max[1:-1] if v_max.size > 2 else v_max)))
     ], scenario.cut.spindle_rpm, process.tool)
+    _check_output_size(schedule.problem.lower_bound_time(), scenario.export.rsi_cycle_ms * MS)
     times["bounds"] = time.perf_counter() - t0
     # An export that cannot be written is worth a warning only where it was expected (no KRL
     # for a UR robot is not news; a KRL program over the segment cap is).
@@ -272,6 +292,13 @@ def write_outputs(
         entry["export_blockers"] = list(ver.export_blockers)
         drawable = is_finite(res.trajectory) and _monotone_within_path(res.trajectory,
                                                                        problem.length)
+        rows = _rows(res.trajectory.duration, cycle) if drawable else 0.0
+        if rows > MAX_CONTROLLER_ROWS:  # too long to sample, draw or export
+            drawable = False
+            entry["exportable"] = False
+            entry["export_blockers"].append(
+                f"{res.trajectory.duration:.4g} s is {rows:.3g} controller cycles, more than the "
+                f"{MAX_CONTROLLER_ROWS:.0e} exported")
         exported = drawable and (ver.exportable or export_unverified)
         entry["exported"] = exported
         summary["laws"][law] = entry

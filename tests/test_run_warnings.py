@@ -87,3 +87,44 @@ def test_dropped_waypoints_are_said(tmp_path, quick_scenario) -> None:
     result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
     assert any("dropped 1 repeated waypoint(s) (indices 2)" in w
                for w in result.summary["warnings"])
+
+
+def test_force_workload_cap_is_said_before_any_force_is_computed(
+        tmp_path, quick_scenario) -> None:
+    p = quick_scenario(path__spacing_mm=0.01, schedule__angle_step_deg=0.01,
+                       schedule__axial_slices=500)
+    messages: list[str] = []
+    with pytest.raises(InputError, match=r"about .* force evaluations, more than the 1e\+11"):
+        run_scenario(p, out_dir=tmp_path / "out", progress=messages.append)
+    assert not any(m.startswith("[4/5]") for m in messages)
+    assert not (tmp_path / "out").exists()
+
+
+def test_output_size_cap_refuses_before_planning(tmp_path, quick_scenario, monkeypatch) -> None:
+    import feedopt.runner as runner
+
+    monkeypatch.setattr(runner, "MAX_CONTROLLER_ROWS", 1000)  # T* of this cut is ~54 s
+    p = quick_scenario(path__spacing_mm=2.0, schedule__laws=["jerk"])
+    with pytest.raises(InputError, match=r"RSI cycles of 4 ms .* GB of CSV"):
+        run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None)
+    assert not (tmp_path / "out").exists()
+
+
+def test_law_over_the_row_cap_is_not_exported_and_costs_no_other(tmp_path, quick_scenario,
+                                                                 monkeypatch) -> None:
+    import feedopt.runner as runner
+
+    p = quick_scenario(path__spacing_mm=2.0, schedule__laws=["constant", "jerk"],
+                       feed__nominal_mm_s=1.0, deflection__limit_mm=1.0)
+    first = run_scenario(p, out_dir=tmp_path / "first", progress=lambda _m: None, report=False)
+    rows = {law: r.trajectory.duration / 0.004 + 1 for law, r in first.laws.items()}
+    longer, shorter = sorted(rows, key=rows.get, reverse=True)
+    assert rows[longer] > rows[shorter]
+    monkeypatch.setattr(runner, "MAX_CONTROLLER_ROWS", 0.5 * (rows[longer] + rows[shorter]))
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
+    laws = result.summary["laws"]
+    assert not laws[longer]["exported"] and not laws[longer]["exportable"]
+    assert any("controller cycles" in b for b in laws[longer]["export_blockers"])
+    assert not (tmp_path / "out" / f"{longer}.csv").exists()
+    assert laws[shorter]["exported"] == first.summary["laws"][shorter]["exported"]
+    assert (tmp_path / "out" / f"{shorter}.csv").is_file() == laws[shorter]["exported"]

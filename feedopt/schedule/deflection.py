@@ -28,8 +28,10 @@ from feedopt.process.forces import (
 
 LIMIT_MODES = ("norm", "normal", "direction")
 
-# Samples per chunk: 4096 samples x 360 angles x 3 x 8 B = 35 MB per array.
+# Samples per chunk: 4096 samples x 360 angles x 3 x 8 B = 35 MB per array. With more angles
+# per sample (a fine angle step, many slices) the chunk shrinks so each array stays that size.
 _CHUNK = 4096
+_CHUNK_ELEMENTS = _CHUNK * 360
 
 
 @dataclass(frozen=True)
@@ -116,8 +118,10 @@ class DeflectionModel:
         ``angles`` is (k, M) per sample; ``a`` and ``b`` have shape (k, M, 3) in the base
         frame [m/m and m], or (k, M) when the mode projects on a direction.
         """
-        for start in range(0, self.n, _CHUNK):
-            sl = slice(start, min(start + _CHUNK, self.n))
+        n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
+        chunk = max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
+        for start in range(0, self.n, chunk):
+            sl = slice(start, min(start + chunk, self.n))
             idx = np.arange(sl.start, sl.stop)
             split, row = self.forces(idx)
             a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])

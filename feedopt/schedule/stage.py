@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedopt.errors import InputError
 from feedopt.schedule.bounds import BoundInputs, FeedBound, feed_bound
 from feedopt.schedule.checks import check_boundary_feeds
 from feedopt.schedule.deflection import DeflectionModel
@@ -35,6 +36,26 @@ def angle_grid(teeth: int, step_deg: float) -> np.ndarray:
     return np.arange(0.0, pitch - 1e-12, step)
 
 
+#: Largest force-model workload of a run: samples x angles per revolution pitch (grid plus
+#: slice entry/exit angles) x axial slices x teeth, evaluated twice (bound and replay). The
+#: default run is 8.7e7 (about 1.5 s of bound and replay on a 2-core machine, 6e7 per s);
+#: 1e6 samples at the default step and slices 1.8e10; the cap is about half an hour.
+MAX_FORCE_EVALUATIONS = 1e11
+
+
+def check_workload(n_samples: int, n_angles: int, axial_slices: int, teeth: int) -> None:
+    """InputError, with the estimate, when the force model would run for hours."""
+    work = 2.0 * n_samples * (n_angles + 2 * axial_slices) * axial_slices * teeth
+    if work > MAX_FORCE_EVALUATIONS:
+        raise InputError(
+            f"schedule.angle_step_deg and schedule.axial_slices ask for {n_angles} angles x "
+            f"{axial_slices} slices on {n_samples} samples: about {work:.2g} force evaluations, "
+            f"more than the {MAX_FORCE_EVALUATIONS:.0e} a run may take "
+            "(about half an hour of computing); "
+            "use a coarser angle step (1 deg is the default and within 1e-6 of the exact "
+            "maximum), fewer slices (20) or a larger path.spacing_mm")
+
+
 def schedule_problem(scenario, process, robot, along, placement, samples,
                      path) -> ScheduleInputs:
     """Build the deflection model, v_max(s) and the schedule problem of ``scenario``.
@@ -46,11 +67,13 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     """
     limits, feed, sched = scenario.limits, scenario.feed, scenario.schedule
     defl = scenario.deflection
+    angles = angle_grid(process.tool.teeth, sched.angle_step_deg)
+    check_workload(samples.s.size, angles.size, sched.axial_slices, process.tool.teeth)
     model = DeflectionModel(
         tool=process.tool,
         coefficients=process.coefficients,
         engagement=process.engagement,
-        angles=angle_grid(process.tool.teeth, sched.angle_step_deg),
+        angles=angles,
         frames=placement.frames,
         compliance=along.compliance,
         rpm=scenario.cut.spindle_rpm,
