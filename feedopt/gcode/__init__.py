@@ -1,0 +1,30 @@
+"""Reading CAM G-code programs (ISO 6983 / RS-274, 3-axis milling subset) into typed moves.
+
+:func:`read_gcode` reads a file, :func:`parse_gcode` text; both return a :class:`Program` of
+:class:`Move` s in millimetres in the work-offset frame. Anything outside the supported subset
+is an :class:`~feedopt.errors.InputError` naming the line, the N number and the word.
+"""
+
+from feedopt.gcode.interpreter import MM_PER_INCH, parse_gcode, read_gcode
+from feedopt.gcode.moves import (
+    SAME_POINT_MM,
+    Move,
+    MoveCategory,
+    MoveKind,
+    Plane,
+    Program,
+    sample_move,
+)
+
+__all__ = [
+    "MM_PER_INCH",
+    "SAME_POINT_MM",
+    "Move",
+    "MoveCategory",
+    "MoveKind",
+    "Plane",
+    "Program",
+    "parse_gcode",
+    "read_gcode",
+    "sample_move",
+]
