@@ -6,6 +6,10 @@ from pathlib import Path
 
 from feedopt.errors import InputError
 
+#: Largest user text file read (a scenario, a waypoint CSV, a G-code program of a long job are
+#: far smaller; a larger file is a mistake, or /dev/zero).
+MAX_TEXT_BYTES = 512 * 2**20
+
 
 def read_user_text(path: str | Path, what: str, encoding: str = "utf-8",
                    missing_hint: str = "") -> str:
@@ -15,6 +19,12 @@ def read_user_text(path: str | Path, what: str, encoding: str = "utf-8",
     """
     p = Path(path)
     try:
+        if p.exists() and not p.is_dir() and not p.is_file():
+            raise InputError(f"{what} {p} is not a regular file (a device, pipe or socket): give "
+                             "a file")
+        if p.is_file() and p.stat().st_size > MAX_TEXT_BYTES:
+            raise InputError(f"{what} {p} is {p.stat().st_size / 2**20:.0f} MiB, more than the "
+                             f"{MAX_TEXT_BYTES / 2**20:.0f} MiB a text input may have")
         return p.read_text(encoding=encoding)
     except FileNotFoundError:
         raise InputError(f"{what} {p} does not exist{missing_hint}") from None

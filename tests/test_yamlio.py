@@ -86,3 +86,15 @@ def test_excerpt_is_short_for_huge_values() -> None:
     big = [[list(range(1000))] * 1000] * 10
     assert len(excerpt(big)) <= 60
     assert excerpt(0.5) == "0.5"
+
+
+def test_devices_and_huge_files_are_refused(tmp_path, monkeypatch) -> None:
+    import feedopt.textio as textio
+
+    with pytest.raises(InputError, match="not a regular file"):
+        read_yaml("/dev/zero", "scenario file")
+    f = tmp_path / "big.yaml"
+    f.write_text("a: 1\n" * 100)
+    monkeypatch.setattr(textio, "MAX_TEXT_BYTES", 100)
+    with pytest.raises(InputError, match="MiB, more than"):
+        read_yaml(f, "scenario file")

@@ -8,8 +8,10 @@ import sys
 from pathlib import Path
 
 from feedopt.errors import InputError
+from feedopt.outfile import check_output_file, write_atomically
 from feedopt.process.calibration import calibrate, calibration_table, read_slot_forces
 from feedopt.process.coefficients import AXIAL_SIGN_NOTE, save_coefficients, sign_problems
+from feedopt.textio import read_user_text
 from feedopt.units import MM
 
 
@@ -42,8 +44,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--teeth must be >= 1, got {args.teeth}")
     if not (math.isfinite(args.axial_depth_mm) and args.axial_depth_mm > 0):
         raise InputError(f"--axial-depth-mm must be > 0, got {args.axial_depth_mm!r}")
-    if args.out and not Path(args.out).resolve().parent.is_dir():
-        raise InputError(f"--out: directory {Path(args.out).resolve().parent} does not exist")
+    if args.out is not None:
+        check_output_file(args.out, "--out", example="coeffs.yaml", inputs=[args.forces_csv])
+    # read_slot_forces reads with the locale's encoding and no check: let textio refuse an
+    # unreadable or non-UTF-8 file first (only a regular file: read_slot_forces refuses the
+    # rest, and a device such as /dev/zero would be read forever)
+    if Path(args.forces_csv).is_file():
+        read_user_text(args.forces_csv, "forces CSV", encoding="utf-8-sig")
     rows = read_slot_forces(args.forces_csv)
     cals = calibrate(rows, args.teeth, args.axial_depth_mm * MM)
 
@@ -78,10 +85,10 @@ def run(args: argparse.Namespace) -> int:
             "the feed) and that each speed has cuts over a wide enough range of feeds; "
             f"{AXIAL_SIGN_NOTE}"
         )
-        if args.out:
+        if args.out is not None:
             raise InputError(f"{why}. Not writing {args.out}: feedopt would refuse to load it")
         print(f"feedopt calibrate: warning: {why}", file=sys.stderr)
-    if args.out:
-        save_coefficients(table, args.out)
+    if args.out is not None:
+        write_atomically(args.out, lambda tmp: save_coefficients(table, tmp))
         print(f"wrote {args.out}")
     return 0

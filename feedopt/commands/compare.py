@@ -5,9 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from feedopt.report.data import load_summary
-from feedopt.report.tables import comparison_table
-
 
 def add_parser(subparsers) -> None:
     """Register ``feedopt compare``."""
@@ -34,6 +31,10 @@ def _names(paths: list[Path]) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Validate every summary first, then print the table (nothing printed on bad input)."""
+    # imported here: feedopt.report pulls in matplotlib, which no other command line needs
+    from feedopt.report.data import load_summary
+    from feedopt.report.tables import comparison_table
+
     paths = [Path(d) for d in args.dirs]
     summaries = [load_summary(p) for p in paths]
     print(comparison_table(summaries, names=_names(paths)))

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.outfile import Writer, check_output_file, plot_suffixes, write_files_atomically
 from feedopt.process.coefficients import feed_per_tooth_warning, load_coefficients
 from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
 from feedopt.process.forces import feed_per_tooth, milling_forces
@@ -94,9 +95,17 @@ def _positive(value: float, option: str, unit: str) -> float:
     return value
 
 
-def _check_out(name: str | None, option: str) -> None:
-    if name and not Path(name).resolve().parent.is_dir():
-        raise InputError(f"{option}: directory {Path(name).resolve().parent} does not exist")
+def _check_outputs(args: argparse.Namespace) -> None:
+    """--out and --plot: writable files, not an input file, not each other (before any work)."""
+    inputs = [args.tool, args.coeffs]
+    if args.out is not None:
+        check_output_file(args.out, "--out", example="forces.csv", inputs=inputs)
+    if args.plot is not None:
+        plot = check_output_file(args.plot, "--plot", plot_suffixes(), example="forces.png",
+                                 inputs=inputs)
+        if args.out is not None and Path(args.out).resolve() == plot:
+            raise InputError(f"--out and --plot are the same file {args.plot}: give two names "
+                             "(e.g. --out forces.csv --plot forces.png)")
 
 
 def _warn(text: str) -> None:
@@ -104,6 +113,7 @@ def _warn(text: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    _check_outputs(args)
     tool = load_tool(args.tool)
     table = load_coefficients(args.coeffs)
     rpm = _positive(args.rpm, "--rpm", "rpm")
@@ -157,8 +167,6 @@ def run(args: argparse.Namespace) -> int:
             "chip model h = c sin(phi) does not apply (milling feeds are typically 0.01-0.5 "
             f"mm per tooth); use a feed below {feed_max / MM:.4g} mm/s at this speed"
         )
-    _check_out(args.out, "--out")
-    _check_out(args.plot, "--plot")
     coeffs = table.at(rpm, extrapolate=args.extrapolate)
     if rpm < table.rpm[0] or rpm > table.rpm[-1]:  # only reached with --extrapolate
         near = table.rpm[0] if rpm < table.rpm[0] else table.rpm[-1]
@@ -198,23 +206,38 @@ def run(args: argparse.Namespace) -> int:
         f"peak        |Fxy| {fxy.max():8.2f} N  |F| {np.linalg.norm(f, axis=1).max():8.2f} N  "
         f"torque {torque.max():.3f} N m  power {power.max():.1f} W"
     )
-    if args.out:
+    files: list[tuple[str, Writer, str]] = []
+    done: list[str] = []
+    if args.out is not None:
         data = np.column_stack([np.degrees(angles), f, fxy, torque, power])
-        np.savetxt(args.out, data, delimiter=",", header=HEADER, comments="", fmt="%.6g")
-        print(f"wrote {args.out} ({count} angles)")
-    if args.plot:
-        _plot(args.plot, np.degrees(angles), f, fxy, args)
-        print(f"wrote {args.plot}")
+        files.append((args.out, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=HEADER,
+                                                       comments="", fmt="%.6g"), "--out"))
+        done.append(f"wrote {args.out} ({count} angles)")
+    if args.plot is not None:
+        files.append((args.plot, lambda tmp: _plot(tmp, np.degrees(angles), f, fxy, args),
+                      "--plot"))
+        done.append(f"wrote {args.plot}")
+    write_files_atomically(files)
+    for line in done:
+        print(line)
     return 0
 
 
-def _plot(path: str, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> None:
+def _plot(path: str | Path, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(7, 4))
+    try:
+        _draw(fig, ax, deg, f, fxy, args)
+        fig.savefig(path, dpi=120)
+    finally:
+        plt.close(fig)
+
+
+def _draw(fig, ax, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> None:
     for k, name in enumerate(("Fx (feed)", "Fy (normal)", "Fz (axial)")):
         ax.plot(deg, f[:, k], label=name)
     ax.plot(deg, fxy, "k", lw=1.5, label="F (x-y resultant)")
@@ -227,5 +250,3 @@ def _plot(path: str, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> N
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)

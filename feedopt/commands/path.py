@@ -13,6 +13,7 @@ from feedopt.geometry.continuity import continuity_report
 from feedopt.geometry.path import Path, build_lipb_path
 from feedopt.geometry.registry import NO_BLEND, blend_names, get_blend, size_parameters
 from feedopt.geometry.waypoints import read_waypoints_csv
+from feedopt.outfile import Writer, check_output_file, plot_suffixes, write_files_atomically
 from feedopt.units import MM, MM_PER_M
 
 BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.square_wave,
@@ -99,12 +100,6 @@ def _size(args: argparse.Namespace) -> float:
     return _positive_mm(given[kind.size.name], own, "12.7")
 
 
-def _check_out(name: str, option: str) -> None:
-    parent = FilePath(name).resolve().parent
-    if not parent.is_dir():
-        raise InputError(f"{option}: directory {parent} does not exist")
-
-
 def run(args: argparse.Namespace) -> int:
     size, spacing = _check_args(args)
     w = BUILTIN[args.waypoints]() if args.waypoints in BUILTIN else read_waypoints_csv(
@@ -135,10 +130,21 @@ def _check_args(args: argparse.Namespace) -> tuple[float, float]:
             f"unknown built-in path {args.waypoints!r}; the built-ins are "
             f"{', '.join(BUILTIN)} (or give a CSV file with columns x_mm,y_mm,z_mm)"
         )
-    for name, opt in ((args.out, "--out"), (args.plot, "--plot")):
-        if name:
-            _check_out(name, opt)
+    _check_outputs(args)
     return size, spacing
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """--out and --plot: writable files, not the waypoint file, not each other."""
+    inputs = [] if args.waypoints in BUILTIN else [args.waypoints]
+    if args.out is not None:
+        check_output_file(args.out, "--out", example="path.csv", inputs=inputs)
+    if args.plot is not None:
+        plot = check_output_file(args.plot, "--plot", plot_suffixes(), example="path.png",
+                                 inputs=inputs)
+        if args.out is not None and FilePath(args.out).resolve() == plot:
+            raise InputError(f"--out and --plot are the same file {args.plot}: give two names "
+                             "(e.g. --out path.csv --plot path.png)")
 
 
 def _print_summary(args: argparse.Namespace, path: Path, n_raw: int, size: float) -> None:
@@ -160,15 +166,22 @@ def _print_summary(args: argparse.Namespace, path: Path, n_raw: int, size: float
 
 def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.ndarray) -> None:
     """The samples CSV (--out) and the figure (--plot)."""
-    if args.out:
+    files: list[tuple[str, Writer, str]] = []
+    done: list[str] = []
+    if args.out is not None:
         pts = path.sample(spacing)
         data = np.column_stack([pts.s * MM_PER_M, pts.position * MM_PER_M, pts.tangent,
                                 pts.curvature * MM])  # curvature 1/m -> 1/mm
-        np.savetxt(args.out, data, delimiter=",", header=HEADER, comments="", fmt="%.12g")
-        print(f"wrote {len(pts.s)} samples to {args.out}")
-    if args.plot:
+        files.append((args.out, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=HEADER,
+                                                       comments="", fmt="%.12g"), "--out"))
+        done.append(f"wrote {len(pts.s)} samples to {args.out}")
+    if args.plot is not None:
         from feedopt.geometry.plot import plot_path
 
-        plot_path(path, args.plot, spacing=max(spacing, path.length / 20000), waypoints=w,
-                  title=f"{args.waypoints}: {args.blend}")
-        print(f"wrote {args.plot}")
+        files.append((args.plot, lambda tmp: plot_path(
+            path, tmp, spacing=max(spacing, path.length / 20000), waypoints=w,
+            title=f"{args.waypoints}: {args.blend}"), "--plot"))
+        done.append(f"wrote {args.plot}")
+    write_files_atomically(files)
+    for line in done:
+        print(line)

@@ -39,6 +39,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from feedopt.errors import InputError
+    from feedopt.outfile import write_atomically
     from feedopt.scenario import schema_reference
 
     if args.schema:
@@ -49,13 +50,14 @@ def run(args: argparse.Namespace) -> int:
                 "'feedopt validate --schema --out reference.md' to write the reference to a "
                 "file"
             )
-        if args.out:
-            _write_reference(args.out, schema_reference())
+        if args.out is not None:
+            target = _check_reference_out(args.out)
+            write_atomically(target, schema_reference())
             print(f"wrote {args.out}")
             return 0
         print(schema_reference(), end="")
         return 0
-    if args.out:
+    if args.out is not None:
         raise InputError(
             "--out writes the --schema reference; validating a scenario writes nothing (use "
             "--schema --out FILE.md, or drop --out)"
@@ -68,18 +70,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_reference(name: str, text: str) -> None:
+def _check_reference_out(name: str) -> Path:
+    """The checked target of ``--schema --out``: a writable .md/.txt file (before any work)."""
     from feedopt.errors import InputError
+    from feedopt.outfile import check_output_file
 
-    out = Path(name)
-    if out.suffix.lower() not in REFERENCE_SUFFIXES:
+    if not Path(name).is_dir() and Path(name).suffix.lower() not in REFERENCE_SUFFIXES:
         raise InputError(
             f"--out {name!r}: the reference is Markdown text, not a scenario; give a file "
             f"ending in {' or '.join(REFERENCE_SUFFIXES[:2])} (e.g. --out reference.md)"
         )
-    parent = out.resolve().parent
-    if not parent.is_dir():
-        raise InputError(f"--out: directory {parent} does not exist")
-    if out.is_dir():
-        raise InputError(f"--out {name!r} is a directory; give a file name (e.g. reference.md)")
-    out.write_text(text)
+    return check_output_file(name, "--out", REFERENCE_SUFFIXES, example="reference.md")

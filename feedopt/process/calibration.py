@@ -22,6 +22,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CoefficientTable, CuttingCoefficients
 from feedopt.process.forces import feed_per_tooth
+from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
 
 CSV_COLUMNS = ("spindle_rpm", "feed_mm_s", "fx_n", "fy_n", "fz_n")
@@ -65,7 +66,8 @@ def read_slot_forces(path: str | Path) -> list[SlotForceRow]:
     if not p.is_file():
         raise InputError(f"forces CSV {str(p)!r} does not exist")
     lines = [
-        ln for ln in p.read_text().splitlines() if ln.strip() and not ln.lstrip().startswith("#")
+        ln for ln in read_user_text(p, "forces CSV", encoding="utf-8-sig").splitlines()
+        if ln.strip() and not ln.lstrip().startswith("#")
     ]
     if not lines:
         raise InputError(f"forces CSV {str(p)!r} has no header row")

@@ -1,0 +1,215 @@
+"""The installed ``feedopt`` command on bad inputs, run as a user runs it (issue 18).
+
+Every case runs ``.venv/bin/feedopt`` in a subprocess, in a folder of its own that holds the
+same small fixture files, and asserts: exit code 2, a fragment of the one error message, no
+Python traceback on stderr, nothing on stdout (every check happens before the work) and the
+folder's listing unchanged (no output file, temporary file or folder left behind).
+
+A subprocess costs about two seconds of imports, so the selected cases are started together
+(a thread pool as wide as the machine) by one module fixture and each test only reads its
+result.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+SCEN = ROOT / "scenarios"
+ROBOT = ROOT / "robots" / "kuka_kr500_3"
+FEEDOPT = Path(sys.executable).parent / "feedopt"
+if not FEEDOPT.exists():  # tests run with another interpreter: the repository's venv
+    FEEDOPT = ROOT / ".venv" / "bin" / "feedopt"
+TABLE_3_2 = SCEN / "materials" / "thesis_table_3_2_slot_forces.csv"
+TOOL = SCEN / "tools" / "hss_2flute_19mm.yaml"
+COEFFS = SCEN / "materials" / "6061-T6511.yaml"
+#: Bytes that are not UTF-8 (0xff never is), with a NUL: what a binary file looks like.
+GARBAGE = bytes(range(256))[::-1] * 4
+
+PATH = ["path", "builtin:triangle", "--radius", "12.7", "--spacing", "1"]
+FORCES = ["forces", "--tool", str(TOOL), "--coeffs", str(COEFFS), "--rpm", "2000",
+          "--feed-mm-s", "4.23", "--axial-depth-mm", "2.54", "--step-deg", "10"]
+CALIBRATE = ["calibrate", str(TABLE_3_2), "--teeth", "2", "--axial-depth-mm", "1.27"]
+RUN = ["run", "scenario/quick.yaml"]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One command line (``{work}``: the case's folder) and what its error must say."""
+
+    id: str
+    argv: tuple[str, ...]
+    fragment: str
+
+
+def case(id_: str, argv: list[str], fragment: str) -> Case:
+    return Case(id_, tuple(argv), fragment)
+
+
+CASES = [
+    # path: --out / --plot
+    case("path-out-folder", PATH + ["--out", "existing"],
+         "--out existing is a folder, not a file: give a file name (e.g. --out existing/path.csv)"),
+    case("path-out-missing-folder", PATH + ["--out", "nodir/p.csv"],
+         "--out: directory {work}/nodir does not exist"),
+    case("path-out-proc", PATH + ["--out", "/proc/p.csv"],
+         "--out /proc/p.csv: cannot write in /proc"),
+    case("path-plot-sys", PATH + ["--plot", "/sys/p.png"],
+         "--plot /sys/p.png: cannot write in /sys"),
+    case("path-out-device", PATH + ["--out", "/dev/null"], "--out /dev/null exists and is not a "
+         "regular file"),
+    case("path-plot-unknown-format", PATH + ["--out", "p.csv", "--plot", "p.xyz"],
+         "--plot p.xyz: cannot write a file with '.xyz'; give a name ending in one of"),
+    case("path-plot-no-extension", PATH + ["--plot", "p"], "--plot p: cannot write a file with no "
+         "extension"),
+    case("path-out-equals-plot", PATH + ["--out", "p.png", "--plot", "p.png"],
+         "--out and --plot are the same file p.png"),
+    case("path-out-is-the-waypoints", ["path", "waypoints.csv", "--blend", "none", "--out",
+                                       "waypoints.csv"],
+         "--out waypoints.csv is the input file waypoints.csv"),
+    case("path-waypoints-garbage", ["path", "garbage.bin", "--blend", "none", "--out", "p.csv"],
+         "waypoint file garbage.bin is not UTF-8 text"),
+    # forces
+    case("forces-out-folder", FORCES + ["--out", "existing"], "--out existing is a folder"),
+    case("forces-plot-unknown-format", FORCES + ["--out", "f.csv", "--plot", "f.xyz"],
+         "--plot f.xyz: cannot write a file with '.xyz'"),
+    case("forces-plot-missing-folder", FORCES + ["--plot", "nodir/f.png"],
+         "--plot: directory {work}/nodir does not exist"),
+    case("forces-out-proc", FORCES + ["--out", "/proc/f.csv"], "cannot write in /proc"),
+    case("forces-coeffs-garbage", ["forces", "--tool", str(TOOL), "--coeffs", "garbage.bin",
+                                   "--rpm", "2000", "--feed-mm-s", "4", "--axial-depth-mm", "2"],
+         "coefficients garbage.bin is not UTF-8 text"),
+    case("forces-tool-garbage", ["forces", "--tool", "garbage.bin", "--coeffs", str(COEFFS),
+                                 "--rpm", "2000", "--feed-mm-s", "4", "--axial-depth-mm", "2"],
+         "tool garbage.bin is not UTF-8 text"),
+    # calibrate
+    case("calibrate-out-folder", CALIBRATE + ["--out", "existing"],
+         "--out existing is a folder, not a file: give a file name (e.g. --out "
+         "existing/coeffs.yaml)"),
+    case("calibrate-out-missing-folder", CALIBRATE + ["--out", "nodir/c.yaml"],
+         "--out: directory {work}/nodir does not exist"),
+    case("calibrate-out-proc", CALIBRATE + ["--out", "/proc/c.yaml"], "cannot write in /proc"),
+    case("calibrate-out-is-the-data", ["calibrate", "cuts.csv", "--teeth", "2",
+                                       "--axial-depth-mm", "1.27", "--out", "./cuts.csv"],
+         "--out ./cuts.csv is the input file cuts.csv"),
+    case("calibrate-data-garbage", ["calibrate", "garbage.bin", "--teeth", "2",
+                                    "--axial-depth-mm", "1.27"],
+         "forces CSV garbage.bin is not UTF-8 text"),
+    # validate
+    case("validate-schema-out-folder", ["validate", "--schema", "--out", "existing"],
+         "--out existing is a folder, not a file"),
+    case("validate-schema-out-missing-folder", ["validate", "--schema", "--out", "nodir/r.md"],
+         "--out: directory {work}/nodir does not exist"),
+    case("validate-schema-out-sys", ["validate", "--schema", "--out", "/sys/r.md"],
+         "cannot write in /sys"),
+    case("validate-scenario-garbage", ["validate", "garbage.bin"],
+         "scenario file garbage.bin is not UTF-8 text"),
+    # compare (writes nothing: its inputs)
+    case("compare-summary-garbage", ["compare", "garbage_run"],
+         "run summary garbage_run/summary.json is not UTF-8 text"),
+    case("compare-missing-run", ["compare", "nodir"], "run summary nodir does not exist"),
+    # robot
+    case("robot-yaml-garbage", ["robot", "garbage_robot", "--q-deg=0,-65,108,0,47,0"],
+         "robot file garbage_robot/robot.yaml is not UTF-8 text"),
+    case("robot-missing-folder", ["robot", "nodir", "--q-deg=0,-65,108,0,47,0"],
+         "nodir: no robot.yaml found"),
+    # run: a few of the output-folder refusals (the rest: tests/test_run_safety.py)
+    case("run-out-existing-file", RUN + ["--out", "existing/keep.txt"],
+         "--out existing/keep.txt is an existing file, not a folder"),
+    case("run-out-proc", RUN + ["--out", "/proc/feedopt_out"], "cannot write in /proc"),
+    case("run-out-current-folder", RUN + ["--out", "."], "--out . is the current directory"),
+    case("run-scenario-garbage", ["run", "garbage.bin"],
+         "scenario file garbage.bin is not UTF-8 text"),
+]
+
+
+def _fixture_files(work: Path) -> None:
+    """The files every case's folder starts with."""
+    (work / "existing").mkdir()
+    (work / "existing" / "keep.txt").write_text("a user's file\n")
+    (work / "garbage.bin").write_bytes(GARBAGE)
+    (work / "waypoints.csv").write_text("x_mm,y_mm,z_mm\n0,0,0\n10,0,0\n10,10,0\n")
+    shutil.copy(TABLE_3_2, work / "cuts.csv")
+    (work / "garbage_run").mkdir()
+    (work / "garbage_run" / "summary.json").write_bytes(GARBAGE)
+    (work / "garbage_robot").mkdir()
+    (work / "garbage_robot" / "robot.yaml").write_bytes(GARBAGE)
+    doc = yaml.safe_load((SCEN / "linear_peripheral.yaml").read_text())
+    doc["robot"]["directory"] = str(ROBOT)
+    doc["tool"] = str(SCEN / doc["tool"])
+    doc["material"] = str(SCEN / doc["material"])
+    doc["path"]["spacing_mm"] = 2.0
+    doc["schedule"]["laws"] = ["constant", "jerk"]
+    (work / "scenario").mkdir()
+    (work / "scenario" / "quick.yaml").write_text(yaml.safe_dump(doc))
+
+
+def _listing(folder: Path) -> list[str]:
+    """Every entry under ``folder``, hidden ones too, with its size for files."""
+    out = []
+    for p in sorted(folder.rglob("*")):
+        rel = p.relative_to(folder).as_posix()
+        out.append(rel + "/" if p.is_dir() else f"{rel} {p.stat().st_size}")
+    return out
+
+
+@dataclass
+class Outcome:
+    """What one case's process did."""
+
+    returncode: int
+    stdout: str
+    stderr: str
+    before: list[str]
+    after: list[str]
+    work: Path
+
+
+def _run(c: Case, work: Path) -> Outcome:
+    work.mkdir()
+    _fixture_files(work)
+    before = _listing(work)
+    env = dict(os.environ, MPLBACKEND="Agg", PYTHONWARNINGS="ignore")
+    proc = subprocess.run([str(FEEDOPT), *c.argv], cwd=work, env=env, capture_output=True,
+                          text=True, timeout=120)
+    return Outcome(proc.returncode, proc.stdout, proc.stderr, before, _listing(work), work)
+
+
+@pytest.fixture(scope="module")
+def outcomes(request, tmp_path_factory) -> dict[str, Outcome]:
+    """Run every selected case at once; their outcomes by case id."""
+    wanted = {item.callspec.params["c"].id for item in request.session.items
+              if item.module is sys.modules[__name__] and hasattr(item, "callspec")}
+    selected = [c for c in CASES if c.id in wanted]
+    root = tmp_path_factory.mktemp("cli")
+    with ThreadPoolExecutor(max_workers=max(2, os.cpu_count() or 2)) as pool:
+        futures = {c.id: pool.submit(_run, c, root / c.id) for c in selected}
+        return {cid: f.result() for cid, f in futures.items()}
+
+
+def test_cases_are_unique():
+    assert len({c.id for c in CASES}) == len(CASES)
+    assert FEEDOPT.exists(), f"install feedopt first: {FEEDOPT} is missing"
+
+
+@pytest.mark.parametrize("c", CASES, ids=[c.id for c in CASES])
+def test_bad_input_exits_2_with_one_message_and_leaves_nothing(outcomes, c):
+    o = outcomes[c.id]
+    err = o.stderr
+    assert o.returncode == 2, err
+    assert "Traceback" not in err
+    command = c.argv[0]
+    errors = [ln for ln in err.splitlines() if ln.startswith(f"feedopt {command}: error: ")]
+    assert len(errors) == 1, err
+    assert c.fragment.format(work=o.work) in err
+    assert o.stdout == ""
+    assert o.after == o.before
