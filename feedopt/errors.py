@@ -14,6 +14,14 @@ class InputError(FeedoptError):
     """The user's input cannot be planned; the message says why and where (exit code 2)."""
 
 
+class LawNotApplicable(FeedoptError):
+    """A timing law declines a problem it was not made for (the reason is the message).
+
+    Not bad input: the other laws plan the same problem. The runner records the law as
+    declined, says why, and goes on with the others.
+    """
+
+
 class Terminated(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
     """The process received SIGTERM or SIGHUP: unwind (cleaning up staging folders) and stop.
 

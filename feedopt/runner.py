@@ -20,7 +20,7 @@ import numpy as np
 
 from feedopt import outdir
 from feedopt.cell import Placement, place_path
-from feedopt.errors import InputError
+from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints
 from feedopt.geometry.stage import path_from_section
@@ -67,6 +67,8 @@ class Prepared:
     warnings: list[str] = field(default_factory=list)
     # {exporter: why it cannot write for this run}, known before planning.
     export_blockers: dict[str, str] = field(default_factory=dict)
+    # {law: why it declined this problem} (feedopt.errors.LawNotApplicable), set by planning.
+    declined: dict[str, str] = field(default_factory=dict)
 
     # Shorthands for what the summary, the report and tests read most.
     @property
@@ -231,7 +233,13 @@ def plan_and_verify(
     options = prepared.scenario.schedule
     for law in planning_order(laws):
         t0 = time.perf_counter()
-        planned[law] = plan_law(law, prepared.problem, context, options=options.options_for(law))
+        try:
+            planned[law] = plan_law(law, prepared.problem, context,
+                                    options=options.options_for(law))
+        except LawNotApplicable as exc:
+            prepared.declined[law] = str(exc)
+            progress(f"[5/5] {law}: declined: {exc}")
+            continue
         planning_time[law] = time.perf_counter() - t0
 
     results: dict[str, LawResult] = {}
@@ -249,7 +257,7 @@ def plan_and_verify(
                  f"of limit), {status} ({dt:.2f} s)")
         for problem in ver.problems:
             progress(f"      ! {law}: {problem}")
-    return {law: results[law] for law in laws}
+    return {law: results[law] for law in laws if law in results}
 
 
 @dataclass
@@ -282,8 +290,10 @@ def write_outputs(
 
     sc, problem = prepared.scenario, prepared.problem
     cycle = sc.export.rsi_cycle_ms * MS
-    summary = {"scenario": scenario_summary(prepared), "warnings": list(prepared.warnings),
-               "laws": {}}
+    summary = {"scenario": scenario_summary(prepared),
+               "warnings": list(prepared.warnings) + [f"law {law} declined: {why}" for law, why
+                                                      in prepared.declined.items()],
+               "declined_laws": dict(prepared.declined), "laws": {}}
     series = []
     for law, res in results.items():
         entry = law_summary(prepared, res)
@@ -352,6 +362,9 @@ def run_scenario(
     try:
         prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
         results = plan_and_verify(prepared, laws, progress)
+        if not results:
+            raise InputError("no timing law planned this path: " + "; ".join(
+                prepared.declined.values()) + " — add convex or jerk to schedule.laws / --laws")
         summary = write_outputs(prepared, results, dest.staging, export_unverified, report)
         outdir.commit(dest)
     finally:

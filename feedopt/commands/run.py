@@ -62,9 +62,24 @@ def run(args: argparse.Namespace) -> int:
     )
     print(result.table)
     print(f"\nwrote {result.out_dir}")
+    return exit_code(result)
+
+
+#: ``feedopt run`` exit code when some laws failed their own verification while others were
+#: verified and exported: the outputs are usable, the failures are real (README, exit codes).
+PARTIAL = 3
+
+
+def exit_code(result) -> int:
+    """0: every law that planned kept its promises (declined laws are said, not failures);
+    3 (PARTIAL): some failed their own verification, others were exported; 1: some failed and
+    none was exported."""
     failed = [law for law, r in result.laws.items() if not r.verification.verified]
-    if failed:
-        print(f"feedopt run: {len(failed)} law(s) FAILED their own verification and were not "
-              f"exported: {', '.join(failed)} (see summary.json)", file=sys.stderr)
-        return 1
-    return 0
+    if not failed:
+        return 0
+    exported = [law for law, e in result.summary["laws"].items() if e.get("exported")]
+    print(f"feedopt run: {len(failed)} law(s) FAILED their own verification and were not "
+          f"exported: {', '.join(failed)} (see summary.json)"
+          + (f"; exported: {', '.join(exported)}" if exported else "; nothing was exported"),
+          file=sys.stderr)
+    return PARTIAL if exported else 1

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from feedopt.errors import InputError
+from feedopt.errors import InputError, LawNotApplicable
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.quintic import (
     QuinticPieces,
@@ -144,6 +144,32 @@ def _timing(problem: ScheduleProblem, v: float, h_up: float, h_dn: float, ramp: 
     return fit_length(pp, problem.length)
 
 
+def _check_robot_can_cruise(problem: ScheduleProblem, v: float) -> None:
+    """Decline when the robot's joints cannot run the path at the constant feed ``v``.
+
+    The baseline ignores the deflection bound by design, not the robot: at constant feed the
+    joint rates are |dq/ds| v and |d2q/ds2| v^2 (no tangential acceleration), which must stay
+    within the joint velocity and acceleration limits. Checked on the samples, before any
+    trajectory is built.
+    """
+    qd = np.abs(problem.dq_ds) * v / problem.joint_velocity_max
+    qdd = np.abs(problem.d2q_ds2) * v * v / problem.joint_acceleration_max
+    for what, ratio, limit, unit, power in (
+        ("velocity", qd, problem.joint_velocity_max, "deg/s", 1),
+        ("acceleration", qdd, problem.joint_acceleration_max, "deg/s^2", 2),
+    ):
+        k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        if ratio[k, j] > 1 + 1e-9:
+            need = ratio[k, j] * limit[j]
+            raise LawNotApplicable(
+                f"constant law: at the nominal feed {v / MM:.4g} mm/s joint {j + 1} would need "
+                f"{np.rad2deg(need):.4g} {unit}, {ratio[k, j]:.3g} x its {what} limit "
+                f"{np.rad2deg(limit[j]):.4g} {unit}, at s = {problem.s[k] / MM:.3f} mm "
+                f"(sample {k}). The baseline ignores the deflection limit by design, not the "
+                f"robot's joint limits: a feed of at most "
+                f"{v / ratio[k, j] ** (1.0 / power) / MM:.4g} mm/s runs (feed.nominal_mm_s)")
+
+
 def plan_constant(problem: ScheduleProblem, options: ConstantOptions | None = None) -> Trajectory:
     """Nominal feed with C2 start/stop ramps.
 
@@ -168,6 +194,7 @@ def plan_constant(problem: ScheduleProblem, options: ConstantOptions | None = No
     _check_inputs(problem, ramp)
     notes: list[str] = []
     v, lowered = _cruise_feed(problem, ramp)
+    _check_robot_can_cruise(problem, v)
     if lowered:
         notes.append(
             f"path too short to reach the nominal feed {problem.nominal_feed / MM:.4g} mm/s: "

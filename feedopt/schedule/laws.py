@@ -15,12 +15,13 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from pydantic import BaseModel
+if TYPE_CHECKING:  # the registry itself imports no numerics (it is read by every command)
+    from pydantic import BaseModel
 
-from feedopt.schedule.problem import ScheduleProblem
-from feedopt.schedule.trajectory import Trajectory
+    from feedopt.schedule.problem import ScheduleProblem
+    from feedopt.schedule.trajectory import Trajectory
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ from typing import NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from feedopt.errors import InputError
+from feedopt.errors import InputError, LawNotApplicable
 from feedopt.schedule.checks import check_boundary_feeds
 from feedopt.schedule.polynomial import sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
@@ -83,6 +83,13 @@ class ThesisOptions(BaseModel):
         1e-9, ge=0.0, lt=1e-3, allow_inf_nan=False,
         description="relative safety when a piece's feeds are lowered: they are lowered to "
         "(1 - margin) of the bound, so the next check stays below it")
+    max_stretches: int = Field(
+        2000, ge=1, description="the law holds one feed per stretch (line, blend, key-point "
+        "interval) and re-plans all of them per lowering pass; a path with more stretches (a "
+        "dense waypoint cloud) is declined, cheaply, before any planning")
+    decline_reversal: bool = Field(
+        True, description="decline the path (say why, let the other laws plan it) when a "
+        "quintic piece would run backwards; false: return it, and verification fails it")
     handoff_reset_factor: float = Field(
         4.0, gt=0.0, allow_inf_nan=False,
         description="the section 4.3 hand-off is restarted with af = 0 where it would exceed "
@@ -560,7 +567,15 @@ def plan_thesis(problem: ScheduleProblem, options: ThesisOptions | None = None) 
     """
     options = ThesisOptions() if options is None else options
     _check_inputs(problem)
-    stretches = _initial_feeds(problem, _stretches(problem, options.key_points))
+    raw = _stretches(problem, options.key_points)
+    if len(raw) > options.max_stretches:
+        raise LawNotApplicable(
+            f"thesis law: the path has {len(raw)} stretches (lines, blends, key-point "
+            f"intervals), more than the {options.max_stretches} it plans "
+            "(schedule.law_options.thesis.max_stretches): it holds one feed per stretch, made "
+            "for the thesis's key-point paths, not dense waypoint clouds; convex and jerk plan "
+            "this path")
+    stretches = _initial_feeds(problem, raw)
     stretches, ramp_fits = _place_ramps(problem, stretches, options.ramp_room)
     layout = _layout(problem, stretches)
     result = _lower_feeds(problem, layout, options)
@@ -595,5 +610,12 @@ def plan_thesis(problem: ScheduleProblem, options: ThesisOptions | None = None) 
         exceeds_accel_max=bool(np.isfinite(problem.accel_max)
                                and max_accel > problem.accel_max * (1 + 1e-6)),
     )
+    if stats.reverses and options.decline_reversal:
+        k = int(np.argmin(result.vmin))
+        raise LawNotApplicable(
+            f"thesis law: its quintic piece {k} would run backwards (feed down to "
+            f"{float(result.vmin.min()) / MM:.4g} mm/s): the bound changes faster than one feed "
+            "per stretch with quintic blends (Eq. 3.21-3.22) can follow; convex and jerk plan "
+            "this path")
     notes = _notes(problem, stretches, stats, options, float(result.vmin.min()))
     return Trajectory(law="thesis", timing=pp, continuity=2, notes=tuple(notes), stats=stats)

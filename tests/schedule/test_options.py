@@ -15,7 +15,8 @@ from tests.schedule.conftest import wave_problem
 DEFAULTS = {
     "constant": {"ramp": "quintic"},
     "thesis": {"key_points": True, "lower_feeds": True, "max_iterations": 200,
-               "ramp_room": 0.45, "lowering_margin": 1e-9, "handoff_reset_factor": 4.0},
+               "ramp_room": 0.45, "lowering_margin": 1e-9, "handoff_reset_factor": 4.0,
+               "max_stretches": 2000, "decline_reversal": True},
     "topp": {"max_gridpoints": None, "use_accel_limit": True, "use_joint_limits": True},
     "convex": {"max_gridpoints": 3000, "rest_gridpoints": 61, "jerk_margin": 0.02,
                "reach_margin": 0.05, "max_resolves": 3, "reversal_jerk_scale": 0.9,
