@@ -13,6 +13,10 @@ from feedopt.textio import read_user_text
 from feedopt.units import MM
 
 COLUMNS = ("x_mm", "y_mm", "z_mm")
+#: Largest waypoint coordinate accepted [mm]: 100 m, beyond the reach of any robot cell (the
+#: largest arms reach about 4 m, linear tracks tens of metres). Larger values are typos or unit
+#: mistakes, and near 1e308 they overflow the geometry.
+MAX_COORDINATE_MM = 1e5
 
 
 def read_waypoints_csv(path: str | FilePath) -> np.ndarray:
@@ -49,6 +53,10 @@ def read_waypoints_csv(path: str | FilePath) -> np.ndarray:
                 ) from None
             if not math.isfinite(v):
                 raise InputError(f"{p} line {no}, column {COLUMNS[k]}: value {v} is not finite")
+            if abs(v) > MAX_COORDINATE_MM:
+                raise InputError(
+                    f"{p} line {no}, column {COLUMNS[k]}: {v:g} mm is beyond any robot's reach "
+                    f"(|value| <= {MAX_COORDINATE_MM:g} mm); are the units millimetres?")
             out[r, k] = v
     if len(out) < 2:
         raise InputError(f"{p}: a path needs at least two waypoints, found {len(out)}")

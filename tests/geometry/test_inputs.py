@@ -134,3 +134,15 @@ def test_other_geometry_messages_in_mm():
         waves.triangle_wave(length=-0.1)
     with pytest.raises(InputError, match=r"got \(0, 0, 0\) mm and \(inf, 0, 0\) mm"):
         waves.straight_line(end=(np.inf, 0.0, 0.0))
+
+
+def test_absurd_coordinate_is_refused_with_its_line(tmp_path) -> None:
+    from feedopt.cli import main
+    from feedopt.geometry.waypoints import read_waypoints_csv
+
+    f = tmp_path / "w.csv"
+    f.write_text("x_mm,y_mm,z_mm\n0,0,0\n10,1e308,0\n20,0,0\n")
+    with pytest.raises(InputError, match=r"line 3, column y_mm: 1e\+308 mm is beyond"):
+        read_waypoints_csv(f)
+    assert main(["path", str(f), "--blend", "none", "--out", str(tmp_path / "p.csv")]) == 2
+    assert not (tmp_path / "p.csv").exists()
