@@ -268,3 +268,17 @@ def write_atomically(path: str | os.PathLike[str], write: Writer, what: str = "-
         previous file at ``path`` is untouched.
     """
     return write_files_atomically([(path, write, what)])[0]
+
+
+def check_data_and_plot(out: str | None, plot: str | None, inputs: list, data_example: str,
+                        plot_example: str) -> None:
+    """``--out`` (data) and ``--plot`` (figure) of a command: writable files, not one of its
+    ``inputs``, a plot format matplotlib writes, not each other — before any work."""
+    if out is not None:
+        check_output_file(out, "--out", example=data_example, inputs=inputs)
+    if plot is not None:
+        target = check_output_file(plot, "--plot", plot_suffixes(), example=plot_example,
+                                   inputs=inputs)
+        if out is not None and Path(out).resolve() == target:
+            raise InputError(f"--out and --plot are the same file {plot}: give two names "
+                             f"(e.g. --out {data_example} --plot {plot_example})")

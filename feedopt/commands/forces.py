@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.outfile import Writer, check_output_file, plot_suffixes, write_files_atomically
+from feedopt.outfile import Writer, check_data_and_plot, write_files_atomically
 from feedopt.process.coefficients import feed_per_tooth_warning, load_coefficients
 from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
 from feedopt.process.forces import feed_per_tooth, milling_forces
@@ -98,14 +98,7 @@ def _positive(value: float, option: str, unit: str) -> float:
 def _check_outputs(args: argparse.Namespace) -> None:
     """--out and --plot: writable files, not an input file, not each other (before any work)."""
     inputs = [args.tool, args.coeffs]
-    if args.out is not None:
-        check_output_file(args.out, "--out", example="forces.csv", inputs=inputs)
-    if args.plot is not None:
-        plot = check_output_file(args.plot, "--plot", plot_suffixes(), example="forces.png",
-                                 inputs=inputs)
-        if args.out is not None and Path(args.out).resolve() == plot:
-            raise InputError(f"--out and --plot are the same file {args.plot}: give two names "
-                             "(e.g. --out forces.csv --plot forces.png)")
+    check_data_and_plot(args.out, args.plot, inputs, "forces.csv", "forces.png")
 
 
 def _warn(text: str) -> None:

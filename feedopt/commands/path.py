@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path as FilePath
 
 import numpy as np
 
@@ -13,7 +12,7 @@ from feedopt.geometry.continuity import continuity_report
 from feedopt.geometry.path import Path, build_lipb_path
 from feedopt.geometry.registry import NO_BLEND, blend_names, get_blend, size_parameters
 from feedopt.geometry.waypoints import read_waypoints_csv
-from feedopt.outfile import Writer, check_output_file, plot_suffixes, write_files_atomically
+from feedopt.outfile import Writer, check_data_and_plot, write_files_atomically
 from feedopt.units import MM, MM_PER_M
 
 BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.square_wave,
@@ -137,14 +136,7 @@ def _check_args(args: argparse.Namespace) -> tuple[float, float]:
 def _check_outputs(args: argparse.Namespace) -> None:
     """--out and --plot: writable files, not the waypoint file, not each other."""
     inputs = [] if args.waypoints in BUILTIN else [args.waypoints]
-    if args.out is not None:
-        check_output_file(args.out, "--out", example="path.csv", inputs=inputs)
-    if args.plot is not None:
-        plot = check_output_file(args.plot, "--plot", plot_suffixes(), example="path.png",
-                                 inputs=inputs)
-        if args.out is not None and FilePath(args.out).resolve() == plot:
-            raise InputError(f"--out and --plot are the same file {args.plot}: give two names "
-                             "(e.g. --out path.csv --plot path.png)")
+    check_data_and_plot(args.out, args.plot, inputs, "path.csv", "path.png")
 
 
 def _print_summary(args: argparse.Namespace, path: Path, n_raw: int, size: float) -> None:
