@@ -91,6 +91,9 @@ def check_destination(out: Path, protected: Iterable[Path], overwrite: bool) -> 
     ``protected`` are folders whose contents a run must never replace (the current directory,
     the scenario's folder): ``out`` may be inside them, never equal to or above them.
     """
+    from feedopt.outfile import check_name
+
+    check_name(str(out), f"--out {str(out)[:60]}")
     target = out.resolve()
     for p in protected:
         p = p.resolve()

@@ -64,6 +64,20 @@ def _same_file(a: Path, b: Path) -> bool:
         return False
 
 
+#: Longest file or folder name most file systems take (bytes, UTF-8).
+NAME_MAX = 255
+
+
+def check_name(text: str, what: str) -> None:
+    """InputError for a name no file system takes: a NUL byte, a component over NAME_MAX."""
+    if "\0" in text:
+        raise InputError(f"{what}: the name contains a NUL byte; give a plain file name")
+    for part in Path(text).parts:
+        if len(part.encode("utf-8", "surrogateescape")) > NAME_MAX:
+            raise InputError(f"{what}: the name part {part[:40]}... is longer than {NAME_MAX} "
+                             "bytes, more than file systems take; give a shorter name")
+
+
 def check_output_file(
     path: str | os.PathLike[str],
     what: str,
@@ -110,6 +124,7 @@ def check_output_file(
         example = "out" + (allowed_suffixes[0] if allowed_suffixes else (suffix or ".txt"))
     if not text.strip():
         raise InputError(f"{what} is empty: give a file name (e.g. {what} {example})")
+    check_name(text, what)
     try:
         target = Path(text).resolve()
     except (OSError, RuntimeError) as exc:  # a symbolic link loop

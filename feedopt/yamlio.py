@@ -91,7 +91,10 @@ def _expanded_size(root: Node, budget: int) -> int:
 
 def parse_yaml(text: str, source: str) -> Any:
     """Parse one YAML document with :class:`StrictLoader`; InputError naming ``source``."""
-    loader = StrictLoader(text)
+    try:
+        loader = StrictLoader(text)  # refuses control characters (yaml.reader.ReaderError)
+    except yaml.YAMLError as exc:
+        raise InputError(f"{source}: not valid YAML: {exc}") from None
     try:
         node = loader.get_single_node()
         if node is None:

@@ -30,3 +30,15 @@ def quick_scenario(tmp_path) -> Callable[..., Path]:
         return p
 
     return write
+
+
+# Hypothesis profiles (tests/properties, issue 17). Registered here, in the conftest pytest reads
+# at startup, so that `pytest --hypothesis-profile=nightly` finds them. "ci" is the default: it
+# is repeatable (derandomize) and keeps no example database in the repository.
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+settings.register_profile("ci", max_examples=100, deadline=None, derandomize=True, database=None,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("nightly", parent=settings.get_profile("ci"), max_examples=2000,
+                          derandomize=False)
+settings.load_profile("ci")

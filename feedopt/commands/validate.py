@@ -73,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
 def _check_reference_out(name: str) -> Path:
     """The checked target of ``--schema --out``: a writable .md/.txt file (before any work)."""
     from feedopt.errors import InputError
-    from feedopt.outfile import check_output_file
+    from feedopt.outfile import check_name, check_output_file
 
+    check_name(name, "--out")
     if not Path(name).is_dir() and Path(name).suffix.lower() not in REFERENCE_SUFFIXES:
         raise InputError(
             f"--out {name!r}: the reference is Markdown text, not a scenario; give a file "
