@@ -127,6 +127,10 @@ CASES = [
          "--out existing/keep.txt is an existing file, not a folder"),
     case("run-out-proc", RUN + ["--out", "/proc/feedopt_out"], "cannot write in /proc"),
     case("run-out-current-folder", RUN + ["--out", "."], "--out . is the current directory"),
+    case("run-rsi-cycle-tiny", ["run", "scenario/tiny_cycle.yaml"], "is not an RSI cycle"),
+    case("run-rsi-cycle-huge", ["run", "scenario/huge_cycle.yaml"], "is not an RSI cycle"),
+    case("run-force-workload", ["run", "scenario/fine_forces.yaml"],
+         "force evaluations, more than the 1e+11"),
     case("run-scenario-garbage", ["run", "garbage.bin"],
          "scenario file garbage.bin is not UTF-8 text"),
 ]
@@ -151,6 +155,18 @@ def _fixture_files(work: Path) -> None:
     doc["schedule"]["laws"] = ["constant", "jerk"]
     (work / "scenario").mkdir()
     (work / "scenario" / "quick.yaml").write_text(yaml.safe_dump(doc))
+    # Inputs that would eat the machine (issue 18): refused before any work.
+    for name, section, key, value in (
+        ("tiny_cycle", "export", "rsi_cycle_ms", 0.001),
+        ("huge_cycle", "export", "rsi_cycle_ms", 100000),
+        ("fine_forces", "schedule", "angle_step_deg", 0.01),
+    ):
+        bad = yaml.safe_load(yaml.safe_dump(doc))
+        bad.setdefault(section, {})[key] = value
+        if name == "fine_forces":
+            bad["schedule"]["axial_slices"] = 500
+            bad["path"]["spacing_mm"] = 0.01
+        (work / "scenario" / f"{name}.yaml").write_text(yaml.safe_dump(bad))
 
 
 def _listing(folder: Path) -> list[str]:
