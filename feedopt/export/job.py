@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from feedopt.registry import add_unique
+
 if TYPE_CHECKING:  # types only: exporters import this module, it imports no stage
     from scipy.interpolate import CubicSpline
 
@@ -114,10 +116,7 @@ EXPORTERS: dict[str, Exporter] = {}
 
 def register_exporter(exporter: Exporter) -> Exporter:
     """Add ``exporter`` to :data:`EXPORTERS` (ValueError for a name already registered)."""
-    if exporter.name in EXPORTERS:
-        raise ValueError(f"exporter {exporter.name!r} is already registered")
-    EXPORTERS[exporter.name] = exporter
-    return exporter
+    return add_unique(EXPORTERS, exporter.name, exporter, "exporter")
 
 
 def early_blockers(robot: RobotModel, path: GeometricPath) -> dict[str, str]:

@@ -25,6 +25,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.process.forces import critical_angles, milling_forces_at
+from feedopt.registry import add_unique
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.units import MM
 
@@ -273,9 +274,7 @@ CONSTRAINTS: dict[str, Callable[[], FeedConstraint]] = {}
 
 def register_constraint(name: str, factory: Callable[[], FeedConstraint]) -> None:
     """Add a feed-bound constraint (ValueError for a name already registered)."""
-    if name in CONSTRAINTS:
-        raise ValueError(f"feed-bound constraint {name!r} is already registered")
-    CONSTRAINTS[name] = factory
+    add_unique(CONSTRAINTS, name, factory, "feed-bound constraint")
 
 
 for _cls in (DeflectionConstraint, MaxFeedConstraint, SpindleTorqueConstraint,

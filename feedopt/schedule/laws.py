@@ -17,6 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from feedopt.registry import add_unique
+
 if TYPE_CHECKING:  # the registry itself imports no numerics (it is read by every command)
     from pydantic import BaseModel
 
@@ -82,10 +84,7 @@ LAWS: dict[str, LawSpec] = {}
 
 def register_law(spec: LawSpec) -> LawSpec:
     """Add ``spec`` to :data:`LAWS` (ValueError for a name already registered)."""
-    if spec.name in LAWS:
-        raise ValueError(f"timing law {spec.name!r} is already registered")
-    LAWS[spec.name] = spec
-    return spec
+    return add_unique(LAWS, spec.name, spec, "timing law")
 
 
 def law_names() -> tuple[str, ...]:

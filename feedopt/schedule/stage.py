@@ -85,7 +85,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
     qd_max = robot.joint_velocity_max * limits.joint_velocity_scale
     qdd_max = robot.joint_acceleration_max * limits.joint_acceleration_scale
-    dq_ds = along.q_of_s(samples.s, 1)
+    dq_ds = along.dq_ds  # q'(s) at the samples, from the robot stage
     bound = feed_bound(BoundInputs(
         model=model, limit=limit, max_feed=max_feed, dq_ds=dq_ds, joint_velocity_max=qd_max,
         torque_max=limits.spindle_torque_nm, power_max=limits.spindle_power_w,
@@ -96,7 +96,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         v_max=bound.v_max,
         q=along.ik.q,
         dq_ds=dq_ds,
-        d2q_ds2=along.q_of_s(samples.s, 2),
+        d2q_ds2=along.d2q_ds2,
         joint_velocity_max=qd_max,
         joint_acceleration_max=qdd_max,
         accel_max=limits.tangential_acceleration_mm_s2 * MM,
