@@ -66,7 +66,7 @@ class Prepared:
     # export that will be skipped...): printed, in summary.json and in the report.
     warnings: list[str] = field(default_factory=list)
     # {exporter: why it cannot write for this run}, known before planning.
-    export_blockers: dict[str, str] = field(default_factory=dict)
+    export_blockers: dict = field(default_factory=dict)  # {exporter: export.job.Blocker}
     # {law: why it declined this problem} (feedopt.errors.LawNotApplicable), set by planning.
     declined: dict[str, str] = field(default_factory=dict)
 
@@ -206,10 +206,7 @@ def prepare(
     ], scenario.cut.spindle_rpm, process.tool)
     _check_output_size(schedule.problem.lower_bound_time(), scenario.export.rsi_cycle_ms * MS)
     times["bounds"] = time.perf_counter() - t0
-    # An export that cannot be written is worth a warning only where it was expected (no KRL
-    # for a UR robot is not news; a KRL program over the segment cap is).
-    warnings += [why for name, why in blockers.items()
-                 if not (name == "krl" and robot.controller != "kuka")]
+    warnings += [b.reason for b in blockers.values() if b.warn]
     for w in warnings:
         progress(f"warning: {w}")
     share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()

@@ -71,7 +71,7 @@ class ExportJob:
     limit_mm : deflection limit for headers.
     unverified_on_request : written although not exportable (``--export-unverified``).
     native_program : the law's registry entry asks for a native controller program.
-    blockers : reasons the run already knows an exporter cannot write (``{exporter: why}``).
+    blockers : exporters the run already knows cannot write (``{exporter: Blocker}``).
     """
 
     law: str
@@ -87,7 +87,16 @@ class ExportJob:
     limit_mm: float
     unverified_on_request: bool = False
     native_program: bool = False
-    blockers: dict[str, str] = field(default_factory=dict)
+    blockers: dict[str, Blocker] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Blocker:
+    """Why an exporter cannot write for a run. ``warn``: worth a warning (the user expected
+    the file: a size cap); False where the format simply does not apply (no KRL for a UR)."""
+
+    reason: str
+    warn: bool = True
 
 
 @dataclass(frozen=True)
@@ -108,7 +117,8 @@ class Exporter:
     description: str
     export: Callable[[ExportJob, Path], dict]
     for_law: Callable[[ExportJob], bool] = lambda job: True
-    early_check: Callable[[RobotModel, GeometricPath], str | None] = lambda robot, path: None
+    early_check: Callable[[RobotModel, GeometricPath], Blocker | str | None] = (
+        lambda robot, path: None)
 
 
 EXPORTERS: dict[str, Exporter] = {}
@@ -119,13 +129,14 @@ def register_exporter(exporter: Exporter) -> Exporter:
     return add_unique(EXPORTERS, exporter.name, exporter, "exporter")
 
 
-def early_blockers(robot: RobotModel, path: GeometricPath) -> dict[str, str]:
-    """``{exporter: reason}`` for every exporter that cannot write for this robot and path."""
+def early_blockers(robot: RobotModel, path: GeometricPath) -> dict[str, Blocker]:
+    """``{exporter: Blocker}`` for every exporter that cannot write for this robot and path
+    (a plain string from ``early_check`` is a :class:`Blocker` worth a warning)."""
     out = {}
     for exporter in EXPORTERS.values():
-        reason = exporter.early_check(robot, path)
-        if reason is not None:
-            out[exporter.name] = reason
+        found = exporter.early_check(robot, path)
+        if found is not None:
+            out[exporter.name] = Blocker(found) if isinstance(found, str) else found
     return out
 
 
@@ -139,12 +150,12 @@ def run_exporters(job: ExportJob, out_dir: Path) -> dict:
     for exporter in EXPORTERS.values():
         if not exporter.for_law(job):
             continue
-        reason = job.blockers.get(exporter.name)
-        if reason is None:
+        blocker = job.blockers.get(exporter.name)
+        if blocker is None:
             entry.update(exporter.export(job, out_dir))
         else:
             entry[f"{exporter.name}_program"] = None
-            entry[f"{exporter.name}_not_written"] = reason
+            entry[f"{exporter.name}_not_written"] = blocker.reason
     return entry
 
 

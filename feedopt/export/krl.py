@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.job import Exporter, ExportJob
+from feedopt.export.job import Blocker, Exporter, ExportJob
 from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
@@ -312,16 +312,17 @@ def segment_count(path) -> int:
     return sum(1 if seg.kind == "line" else 2 for seg in path.segments)
 
 
-def early_check(robot, path) -> str | None:
+def early_check(robot, path) -> Blocker | None:
     """Why no KRL program can be written for this robot and path, known before planning."""
-    if robot.controller != "kuka":
-        return (f"no KRL program: robot {robot.name} has controller '{robot.controller}' "
-                "(robot.yaml), KRL is for KUKA controllers")
+    if robot.controller != "kuka":  # the format does not apply: no warning
+        return Blocker(f"no KRL program: robot {robot.name} has controller "
+                       f"'{robot.controller}' (robot.yaml), KRL is for KUKA controllers",
+                       warn=False)
     n_segments = segment_count(path)
     if n_segments > MAX_SEGMENTS:
-        return (f"no KRL program: the path's key points make {n_segments} spline segments, "
-                f"more than the {MAX_SEGMENTS} a KSS 8.x SPLINE block holds; the RSI CSVs are "
-                "written as usual")
+        return Blocker(f"no KRL program: the path's key points make {n_segments} spline "
+                       f"segments, more than the {MAX_SEGMENTS} a KSS 8.x SPLINE block holds; "
+                       "the RSI CSVs are written as usual")
     return None
 
 
