@@ -36,6 +36,7 @@ from feedopt.geometry.registry import (
     SegmentEvaluator,
     blend_kinds,
     get_blend,
+    segment_kinds,
 )
 from feedopt.units import MM, MM_PER_M
 
@@ -84,6 +85,9 @@ class Segment:
         varying_radius: ``centre``, ``e1``, ``e2``, ``radius`` (r0), ``angle`` (theta_f);
             p(theta) = centre + r(theta) (cos theta e1 + sin theta e2), r of Eq. 3.17
         parametric kinds also carry their arc-length table: ``s_nodes``, ``sigma_nodes``.
+    offset : where this segment starts on the curve its ``params`` describe [m]: a segment
+        trimmed at its start (by a G2 transition) keeps the curve's parameters and evaluates
+        it from ``offset`` to ``offset + length``.
     """
 
     kind: str
@@ -91,6 +95,7 @@ class Segment:
     length: float
     corner_index: int = -1
     params: dict[str, Any] = field(default_factory=dict)
+    offset: float = 0.0
 
     @property
     def s_end(self) -> float:
@@ -111,17 +116,19 @@ class LineEvaluator:
 
 
 def segment_evaluator(kind: str, segs: Sequence[Segment]) -> SegmentEvaluator:
-    """The evaluator of all segments ``segs`` of ``kind``: lines, or the registered blend's.
+    """The evaluator of all segments ``segs`` of ``kind``: lines, or the registered blend's
+    or segment kind's (:func:`~feedopt.geometry.registry.register_segment_kind`).
 
-    Raises ``ValueError`` for a kind that is neither "line" nor a registered blend.
+    Raises ``ValueError`` for a kind that is none of these.
     """
     if kind == LINE:
         return LineEvaluator(segs)
-    blend = next((b for b in blend_kinds() if b.name == kind), None)
-    if blend is None:
+    known = (*blend_kinds(), *segment_kinds())
+    found = next((b for b in known if b.name == kind), None)
+    if found is None:
         raise ValueError(f"unknown segment kind {kind!r}: neither {LINE!r} nor a registered "
-                         f"blend ({', '.join(b.name for b in blend_kinds())})")
-    return blend.evaluator(segs)
+                         f"blend or segment kind ({', '.join(b.name for b in known)})")
+    return found.evaluator(segs)
 
 
 class Path:
@@ -130,17 +137,24 @@ class Path:
     Segments must be contiguous: ``segments[i].s_start == sum of earlier lengths``.
     ``dropped_waypoints`` are the indices (in the caller's array) of the repeated waypoints
     the build dropped (``build_lipb_path(..., drop_repeated=True)``); empty otherwise.
+    ``moves`` is the program provenance of a path made from a G-code program (None else).
     """
 
     def __init__(self, segments: tuple[Segment, ...] | list[Segment], *,
-                 dropped_waypoints: Sequence[int] = ()):
+                 dropped_waypoints: Sequence[int] = (), moves: Any = None):
         segs = tuple(segments)
         if not segs:
             raise InputError("a path needs at least one segment")
         self.segments: tuple[Segment, ...] = segs
         self.dropped_waypoints: tuple[int, ...] = tuple(int(i) for i in dropped_waypoints)
+        #: where each programmed move starts (a
+        #: :class:`~feedopt.geometry.program_path.MoveTable`), for paths made from a program
+        self.moves = moves
+        #: what building the path recorded for the user (program reader, smoothing)
+        self.notes: tuple[str, ...] = ()
         self._start = np.array([g.s_start for g in segs], dtype=float)
         self._len = np.array([g.length for g in segs], dtype=float)
+        self._offset = np.array([g.offset for g in segs], dtype=float)
         self.length: float = float(self._start[-1] + self._len[-1])
         self._kind = tuple(g.kind for g in segs)
         present = {kind: code for code, kind in enumerate(dict.fromkeys(self._kind))}
@@ -190,7 +204,7 @@ class Path:
     def _eval_segments(self, seg: np.ndarray, sl: np.ndarray):
         """Evaluate segments ``seg`` at local arc lengths ``sl`` (clipped to the segment)."""
         seg = np.asarray(seg, dtype=np.intp)
-        sl = np.clip(np.asarray(sl, dtype=float), 0.0, self._len[seg])
+        sl = np.clip(np.asarray(sl, dtype=float), 0.0, self._len[seg]) + self._offset[seg]
         n = seg.size
         out = [np.empty((n, 3)) for _ in range(4)]
         code = self._code[seg]

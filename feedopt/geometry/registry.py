@@ -127,6 +127,44 @@ class BlendKind:
 _REGISTRY: dict[str, BlendKind] = {}
 
 
+@dataclass(frozen=True)
+class SegmentKind:
+    """A kind of path segment that is not a corner blend: programmed arcs, G2 transitions,
+    smoothed point chains (:mod:`feedopt.geometry.program_path` builds them).
+
+    Attributes
+    ----------
+    name : identifier used as the segment kind (not "line", "none" or a blend's name)
+    evaluator : ``(segments) -> SegmentEvaluator``, as for blends
+    colour : matplotlib colour of this kind in path figures
+    description : one line for users
+    """
+
+    name: str
+    evaluator: Callable[[Sequence[Any]], SegmentEvaluator]
+    colour: str
+    description: str = field(default="", compare=False)
+
+
+_SEGMENT_KINDS: dict[str, SegmentKind] = {}
+
+
+def register_segment_kind(kind: SegmentKind) -> SegmentKind:
+    """Add a non-blend segment kind (ValueError for a name taken by a blend or a kind)."""
+    if not _NAME.fullmatch(kind.name) or kind.name in _RESERVED:
+        raise ValueError(f"segment kind name {kind.name!r} must be a lower-case identifier "
+                         f"other than {' and '.join(map(repr, _RESERVED))}")
+    if kind.name in _REGISTRY or kind.name in _SEGMENT_KINDS:
+        raise ValueError(f"a segment or blend kind named {kind.name!r} is already registered")
+    _SEGMENT_KINDS[kind.name] = kind
+    return kind
+
+
+def segment_kinds() -> tuple[SegmentKind, ...]:
+    """The registered non-blend segment kinds, in registration order."""
+    return tuple(_SEGMENT_KINDS.values())
+
+
 def register_blend(kind: BlendKind) -> BlendKind:
     """Add ``kind`` to the registry (after the kinds already there) and return it.
 
@@ -139,7 +177,7 @@ def register_blend(kind: BlendKind) -> BlendKind:
     if not _NAME.fullmatch(kind.name) or kind.name in _RESERVED:
         raise ValueError(f"blend name {kind.name!r} must be a lower-case identifier other than "
                          f"{' and '.join(map(repr, _RESERVED))}")
-    if kind.name in _REGISTRY:
+    if kind.name in _REGISTRY or kind.name in _SEGMENT_KINDS:
         raise ValueError(f"a blend kind named {kind.name!r} is already registered")
     if not _NAME.fullmatch(kind.size.name):
         raise ValueError(f"size parameter name {kind.size.name!r} of blend {kind.name!r} must "

@@ -61,9 +61,9 @@ def test_builtin_names_and_lookup():
     assert blend_names() == BUILTIN
     assert get_blend("none") is None
     assert get_blend("circle") is CIRCLE and CIRCLE.size is RADIUS
-    with pytest.raises(InputError, match="unknown blend 'spline'; choose one of circle, "
+    with pytest.raises(InputError, match="unknown blend 'nurbs'; choose one of circle, "
                                          "bezier4, bezier5, varying_radius, none"):
-        get_blend("spline")
+        get_blend("nurbs")
 
 
 def test_registry_refuses_bad_kinds(toy):
@@ -209,8 +209,8 @@ def test_figure_marks_blends_shorter_than_the_spacing():
 
 
 def test_path_refuses_an_unknown_segment_kind():
-    seg = Segment("spline", 0.0, 1.0, 1, {})
-    with pytest.raises(ValueError, match="unknown segment kind 'spline'"):
+    seg = Segment("nurbs", 0.0, 1.0, 1, {})
+    with pytest.raises(ValueError, match="unknown segment kind 'nurbs'"):
         Path([seg])
 
 

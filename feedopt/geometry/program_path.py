@@ -1,0 +1,822 @@
+"""A G-code program as one G2-continuous path, within a stated tolerance of the program.
+
+:func:`program_path` turns a :class:`~feedopt.gcode.moves.Program` into a
+:class:`~feedopt.geometry.path.Path` in five named phases:
+
+1. *check*: one continuous program (no unknown position between moves), at least one cutting
+   move, no plunge straight down into the material (a drilling move the force model does not
+   cover; ramps and helices, which move across the tool axis, are cuts).
+2. *pieces*: every line (G0/G1) and arc (G2/G3, :mod:`feedopt.geometry.arcs`) becomes a piece;
+   runs of short, nearly tangent G1 cut moves (CAM output of free-form curves) become one
+   quintic smoothing spline within the tolerance (:mod:`feedopt.geometry.smoothing`) instead
+   of a chain of tiny blends with curvature spikes.
+3. *corners*: line-line corners get the scenario's corner blend (any registered kind, thesis
+   3.3), its size the smallest of the one asked for, the largest that fits in half of each
+   line, and the largest whose deviation from the two programmed lines is within tolerance.
+4. *transitions*: every junction that is still not G2 (line-arc, arc-arc, spline ends, the
+   ends of a circular blend, kinks next to arcs) gets a quintic G2 transition
+   (:mod:`feedopt.geometry.transitions`) as long as the tolerance allows: its length is
+   shortened until its measured deviation from the program is within tolerance.
+5. *provenance*: every programmed move gets the arc length where it starts on the smoothed
+   path (:class:`MoveTable`), so every sample knows its program line, N number, move
+   category and programmed feed, and the :class:`JunctionReport` gives, per programmed
+   junction, what was done, the G0/G1/G2 jumps of the result and its deviation from the
+   program.
+
+The tolerance applies to junctions next to a cutting move; junctions between air moves
+(rapids, plunges and retracts in air) use the larger air tolerance. Deviations are measured
+on every modified stretch against the programmed geometry (lines exactly, arcs as polylines
+with a sag below 1e-3 of the tolerance), at 65 samples zoomed twice around the largest
+(:func:`zoomed_max`: the distance to the nearer of two moves has a kink at its maximum).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.gcode.interpreter import where
+from feedopt.gcode.moves import SAME_POINT_MM, Move, MoveCategory, MoveKind, Program
+from feedopt.geometry import blends
+from feedopt.geometry.arcs import ARC, arc_params
+from feedopt.geometry.path import COLLINEAR_TOL, REVERSAL_TOL, Path, Segment
+from feedopt.geometry.registry import LINE, BlendKind, get_blend
+from feedopt.geometry.smoothing import smooth_chain
+from feedopt.geometry.transitions import TRANSITION, build_transitions
+from feedopt.units import MM, MM_PER_M
+
+SPLINE = "spline"  #: segment kind of smoothed chains (:mod:`feedopt.geometry.smoothing`)
+#: curvature jumps below this [1/m] (a radius of 1 km) count as G2
+G2_TOL = 1e-3
+#: samples per modified stretch at which the deviation from the program is measured
+DEVIATION_SAMPLES = 64
+#: transition shortening rounds before a junction is refused
+MAX_ROUNDS = 40
+#: transitions shorter than this [m] cannot be built reliably (arc-length tables)
+MIN_TRANSITION = 1e-7
+
+
+@dataclass(frozen=True)
+class ProgramPathOptions:
+    """How a program becomes a path (SI units).
+
+    tolerance : largest deviation from the program next to cutting moves [m]
+    air_tolerance : the same between air moves (rapids, plunges, retracts) [m]
+    blend, blend_size : corner blend kind of line-line corners and its size [m]
+    chain_max_move : G1 cut moves up to this long may be smoothed as a chain [m]
+    chain_max_turn : ... if consecutive ones turn by at most this [rad]
+    chain_min_moves : ... and at least this many follow each other
+    stock_top : height of the stock's top face in the program frame [m] (a plunge ending
+        below it is refused); None: not checked
+    """
+
+    tolerance: float = 0.01 * MM
+    air_tolerance: float = 0.5 * MM
+    blend: str = "varying_radius"
+    blend_size: float = 5.0 * MM
+    chain_max_move: float = 2.0 * MM
+    chain_max_turn: float = math.radians(15.0)
+    chain_min_moves: int = 4
+    stock_top: float | None = 0.0
+
+
+class Treatment(Enum):
+    """What a programmed junction got."""
+
+    NONE = "none"  #: already G2 (or a G2 jump below G2_TOL)
+    BLEND = "blend"  #: a corner blend of the scenario's kind
+    TRANSITION = "transition"  #: a quintic G2 transition
+    BLEND_TRANSITIONS = "blend+transitions"  #: a G1 blend (circle) and transitions at its ends
+
+
+@dataclass(frozen=True)
+class MoveTable:
+    """Per programmed move (program order) where it starts on the path and what it is.
+
+    s_start : (m,) arc length where the move starts on the smoothed path [m]
+    line, n_number : (m,) source line (1-based) and N number (-1: none)
+    category : (m,) "cut" | "plunge" | "rapid" | "retract"
+    kind : (m,) "line" | "arc" | "rapid"
+    feed : (m,) programmed feed [m/s], NaN for rapids
+    spindle_rpm : (m,) last S word [rev/min], NaN before any
+    tool : (m,) tool number, -1 before any M6
+    """
+
+    s_start: np.ndarray
+    line: np.ndarray
+    n_number: np.ndarray
+    category: np.ndarray
+    kind: np.ndarray
+    feed: np.ndarray
+    spindle_rpm: np.ndarray
+    tool: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.s_start.size)
+
+    def index_at(self, s: np.ndarray) -> np.ndarray:
+        """Index of the move each arc length ``s`` [m] belongs to."""
+        idx = np.searchsorted(self.s_start, np.asarray(s, dtype=float), side="right") - 1
+        return np.clip(idx, 0, len(self) - 1)
+
+    def label(self, i: int) -> str:
+        """``"line 88 (N880)"`` for move ``i``."""
+        n = int(self.n_number[i])
+        return f"line {int(self.line[i])}" + (f" (N{n})" if n >= 0 else "")
+
+
+@dataclass(frozen=True)
+class JunctionReport:
+    """Per programmed junction (between moves ``before`` and ``before + 1`` that are not
+    inside a smoothed chain): what it got and how far the result is from the program.
+
+    before : (k,) index of the move before the junction
+    s : (k,) arc length of the move boundary on the path [m]
+    turn : (k,) programmed turning angle (G1 jump) [rad]
+    curvature_jump : (k,) programmed |K_after - K_before| (G2 jump) [1/m]
+    treatment : (k,) :class:`Treatment` values
+    size : (k,) blend size used [m] (NaN without blend)
+    transition_length : (k,) arc length of the transition(s) [m] (NaN without)
+    deviation : (k,) largest distance of the modified stretch from the program [m]
+    tolerance : (k,) the tolerance that applied [m]
+    g0, g1, g2 : (k,) largest G0 [m], G1, G2 [1/m] jump of the result over the junction
+    """
+
+    before: np.ndarray
+    s: np.ndarray
+    turn: np.ndarray
+    curvature_jump: np.ndarray
+    treatment: tuple[str, ...]
+    size: np.ndarray
+    transition_length: np.ndarray
+    deviation: np.ndarray
+    tolerance: np.ndarray
+    g0: np.ndarray
+    g1: np.ndarray
+    g2: np.ndarray
+    labels: tuple[str, ...] = ()
+
+    def __len__(self) -> int:
+        return int(self.before.size)
+
+    def table(self, max_rows: int | None = 40) -> str:
+        """Plain-text table in mm (curvatures in 1/mm); long reports keep head and tail."""
+        head = (f"{'junction':>26} {'s_mm':>10} {'turn_deg':>9} {'dK_1_mm':>9} "
+                f"{'treatment':>17} {'size_mm':>8} {'trans_mm':>8} {'dev_mm':>9} "
+                f"{'tol_mm':>7} {'G0_mm':>8} {'G1':>8} {'G2_1_mm':>8}")
+        rows = [head]
+        idx = list(range(len(self)))
+        if max_rows is not None and len(idx) > max_rows:
+            half = max_rows // 2
+            idx = idx[:half] + [-1] + idx[-half:]
+        for i in idx:
+            if i < 0:
+                rows.append(f"{'...':>26} ({len(self) - 2 * (max_rows // 2)} junctions omitted)")
+                continue
+            rows.append(
+                f"{self.labels[i]:>26} {self.s[i] * MM_PER_M:>10.3f} "
+                f"{math.degrees(self.turn[i]):>9.3f} {self.curvature_jump[i] * MM:>9.4g} "
+                f"{self.treatment[i]:>17} {_opt(self.size[i]):>8} "
+                f"{_opt(self.transition_length[i]):>8} {self.deviation[i] * MM_PER_M:>9.2e} "
+                f"{self.tolerance[i] * MM_PER_M:>7.3g} {self.g0[i] * MM_PER_M:>8.1e} "
+                f"{self.g1[i]:>8.1e} {self.g2[i] * MM:>8.1e}")
+        if len(self):
+            worst = int(np.argmax(self.deviation / self.tolerance))
+            rows.append(
+                f"{len(self)} junctions: largest deviation {self.deviation.max() * MM_PER_M:.3g}"
+                f" mm ({self.labels[worst]}); largest jumps G0 {self.g0.max() * MM_PER_M:.2g} "
+                f"mm, G1 {self.g1.max():.2g}, G2 {self.g2.max() * MM:.2g} 1/mm")
+        return "\n".join(rows)
+
+
+@dataclass(frozen=True)
+class ChainReport:
+    """A run of short G1 moves smoothed into one spline."""
+
+    first_move: int
+    moves: int
+    first_line: int
+    last_line: int
+    length: float  # [m]
+    deviation: float  # curve -> program [m]
+    coverage: float  # program vertices -> curve [m]
+    points: np.ndarray | None = None  # (moves + 1, 3) the programmed vertices [m]
+
+
+@dataclass(frozen=True, eq=False)
+class ProgramPath:
+    """The path of a program and how it was made."""
+
+    path: Path
+    moves: MoveTable
+    junctions: JunctionReport
+    chains: tuple[ChainReport, ...]
+    warnings: tuple[str, ...] = ()
+
+
+def _opt(v: float) -> str:
+    return "-" if not np.isfinite(v) else f"{v * MM_PER_M:.3g}"
+
+
+# --- 1. check ------------------------------------------------------------------------------
+
+
+def _label(program: Program, m: Move) -> str:
+    return where(program.source, m.line, m.n_number)
+
+
+def check_program(program: Program, stock_top: float | None) -> None:
+    """InputError for a program that cannot become one path: none or only air moves, gaps
+    where the position is unknown, a plunge straight down into the material."""
+    moves = program.moves
+    if not any(m.category is MoveCategory.CUT for m in moves):
+        raise InputError(f"{program.source}: the program has no cutting move (G1/G2/G3 across "
+                         "the tool axis); there is nothing to plan")
+    starts, ends = program.starts, program.ends
+    gap = np.linalg.norm(starts[1:] - ends[:-1], axis=1)
+    bad = np.flatnonzero(gap > SAME_POINT_MM)
+    if bad.size:
+        m = moves[bad[0] + 1]
+        raise InputError(
+            f"{_label(program, m)}: the tool position before this move is unknown (after a "
+            f"tool change, G28 or G53 on line {moves[bad[0]].line} or later); feedopt plans "
+            "one continuous path: move to a known X, Y, Z with G0 before cutting again, or "
+            "split the program")
+    if stock_top is not None:
+        top = stock_top / MM
+        for m in moves:
+            if m.category is MoveCategory.PLUNGE and m.end[2] < top - SAME_POINT_MM:
+                raise InputError(
+                    f"{_label(program, m)}: {m.text.strip()!r} plunges straight down to Z"
+                    f"{m.end[2]:g} mm, below the stock top (Z{top:g} mm): a drilling move the "
+                    "milling force model does not cover; enter the material by a ramp (G1 with "
+                    "X/Y and Z) or a helix (G2/G3 with Z)")
+
+
+# --- 2. pieces -------------------------------------------------------------------------------
+
+
+@dataclass
+class _Piece:
+    """A programmed line or arc, or a smoothed chain of moves, before corners and
+    transitions: a segment ``kind`` with its ``params`` and ``length`` [m]."""
+
+    kind: str
+    params: dict
+    length: float
+    first_move: int
+    n_moves: int
+    node_s: np.ndarray  # (n_moves + 1,) arc length of the move boundaries on the piece [m]
+    polyline: np.ndarray  # (p, 3) the programmed geometry [m]
+    poly_s: np.ndarray  # (p,) programmed arc length along it [m]
+    chain: ChainReport | None = None
+
+
+def _arc_polyline(params: dict, length: float, sag: float) -> tuple[np.ndarray, np.ndarray]:
+    r, lam = params["radius"], math.hypot(params["radius"], params["rise"])
+    step = 2.0 * math.sqrt(2.0 * sag / r) if r > 0 else params["angle"]
+    k = max(2, math.ceil(params["angle"] / min(step, 0.1)))
+    phi = np.linspace(0.0, params["angle"], k + 1)
+    pts = (params["centre"] + r * (np.cos(phi)[:, None] * params["e1"]
+                                   + np.sin(phi)[:, None] * params["e2"])
+           + (params["rise"] * phi)[:, None] * params["normal"])
+    return pts, phi * lam
+
+
+def _chain_runs(program: Program, opts: ProgramPathOptions) -> list[tuple[int, int]]:
+    """(first, last) move indices of the runs of short, nearly tangent G1 cut moves with one
+    feed."""
+    moves = program.moves
+    n = len(moves)
+    vec = (program.ends - program.starts) * MM
+    length = np.linalg.norm(vec, axis=1)
+    ok = np.array([m.kind is MoveKind.LINE and m.category is MoveCategory.CUT for m in moves])
+    ok &= length <= opts.chain_max_move
+    d = vec / np.maximum(length, 1e-300)[:, None]
+    cos = np.clip(np.einsum("ij,ij->i", d[:-1], d[1:]), -1.0, 1.0)
+    feeds = program.feeds_mm_s
+    link = ok[:-1] & ok[1:] & (np.arccos(cos) <= opts.chain_max_turn) & (feeds[:-1] == feeds[1:])
+    runs = []
+    i = 0
+    while i < n:
+        if not ok[i]:
+            i += 1
+            continue
+        j = i
+        while j < n - 1 and link[j]:
+            j += 1
+        if j - i + 1 >= opts.chain_min_moves:
+            runs.append((i, j))
+        i = j + 1
+    return runs
+
+
+def _pieces(program: Program, opts: ProgramPathOptions) -> list[_Piece]:
+    runs = {first: last for first, last in _chain_runs(program, opts)}
+    pieces: list[_Piece] = []
+    moves = program.moves
+    sag = 1e-3 * opts.tolerance
+    i = 0
+    while i < len(moves):
+        m = moves[i]
+        if i in runs:
+            last = runs[i]
+            pts = np.vstack([program.starts[i], program.ends[i:last + 1]]) * MM
+            chain = smooth_chain(pts, opts.tolerance)
+            seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+            report = ChainReport(first_move=i, moves=last - i + 1, first_line=m.line,
+                                 last_line=moves[last].line, length=chain.length,
+                                 deviation=chain.deviation, coverage=chain.coverage,
+                                 points=pts)
+            pieces.append(_Piece(SPLINE, chain.params, chain.length, i, last - i + 1,
+                                 np.asarray(chain.node_s, dtype=float), pts,
+                                 np.concatenate([[0.0], np.cumsum(seg_len)]), report))
+            i = last + 1
+            continue
+        start = np.asarray(m.start) * MM
+        end = np.asarray(m.end) * MM
+        if m.kind is MoveKind.ARC:
+            params, length = arc_params(m)
+            poly, poly_s = _arc_polyline(params, length, sag)
+            pieces.append(_Piece(ARC, params, length, i, 1, np.array([0.0, length]),
+                                 poly, poly_s))
+        else:
+            length = float(np.linalg.norm(end - start))
+            params = {"origin": start, "direction": (end - start) / length}
+            pieces.append(_Piece(LINE, params, length, i, 1, np.array([0.0, length]),
+                                 np.stack([start, end]), np.array([0.0, length])))
+        i += 1
+    return pieces
+
+
+def _path_of(pieces: list[_Piece]) -> Path:
+    """The untrimmed pieces laid end to end (for their end states)."""
+    s0 = np.concatenate([[0.0], np.cumsum([p.length for p in pieces])[:-1]])
+    return Path([Segment(p.kind, float(s), p.length, -1, p.params)
+                 for p, s in zip(pieces, s0, strict=True)])
+
+
+@dataclass(frozen=True)
+class _States:
+    """Position, tangent and curvature vector of pieces at local arc lengths (k, 3) each."""
+
+    p: np.ndarray
+    t: np.ndarray
+    k: np.ndarray
+
+
+def _states(base: Path, piece: np.ndarray, local: np.ndarray) -> _States:
+    p, t, k, _ = base._eval_segments(piece, local)
+    return _States(p, t, k)
+
+
+# --- 3. corners ----------------------------------------------------------------------------
+
+
+def _ray_distance(x: np.ndarray, d_in: np.ndarray, d_out: np.ndarray) -> np.ndarray:
+    """Distance of points x (m, q, 3) to the two rays of corners at the origin: back along
+    -d_in and forward along d_out (m, 3)."""
+    t_in = np.maximum(-np.einsum("mqi,mi->mq", x, d_in), 0.0)
+    t_out = np.maximum(np.einsum("mqi,mi->mq", x, d_out), 0.0)
+    a = np.linalg.norm(x + t_in[..., None] * d_in[:, None], axis=-1)
+    b = np.linalg.norm(x - t_out[..., None] * d_out[:, None], axis=-1)
+    return np.minimum(a, b)
+
+
+def zoomed_max(f, lo: np.ndarray, hi: np.ndarray, q: int = DEVIATION_SAMPLES + 1,
+               rounds: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Largest value of ``f`` on each interval [lo_i, hi_i] and where: ``q`` samples, then
+    ``rounds`` times ``q`` samples across the two sample steps around the best one.
+
+    ``f`` takes an (m, k) array of parameters and returns (m, k) values. A distance to the
+    nearer of two curves has a kink where they are equally far, so its maximum is not a smooth
+    peak and a single uniform sampling misses it linearly in the step; zooming makes that error
+    q^-rounds of it.
+    """
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    grid = np.linspace(0.0, 1.0, q)
+    t = lo[:, None] + grid[None, :] * (hi - lo)[:, None]
+    best_v = np.full(lo.size, -np.inf)
+    best_t = lo.copy()
+    step = (hi - lo) / (q - 1)
+    for _ in range(rounds + 1):
+        v = f(t)
+        k = np.argmax(v, axis=1)
+        vk = v[np.arange(lo.size), k]
+        better = vk > best_v
+        best_v = np.where(better, vk, best_v)
+        best_t = np.where(better, t[np.arange(lo.size), k], best_t)
+        a = np.maximum(best_t - step, lo)
+        b = np.minimum(best_t + step, hi)
+        t = a[:, None] + grid[None, :] * (b - a)[:, None]
+        step = (b - a) / (q - 1)
+    return best_v, best_t
+
+
+def _unit_deviation(kind: BlendKind, c: blends.Corners) -> np.ndarray:
+    """Deviation from its two lines of a size-1 blend of ``kind`` at every corner (blends
+    are similar under scaling, so a size-x blend deviates x times this)."""
+    unit = blends.Corners(np.zeros_like(c.point), c.d_in, c.d_out, c.turn, c.normal,
+                          np.full_like(c.turn, 1e9), np.full_like(c.turn, 1e9))
+    built = kind.build(unit, 1.0)
+    segs = [Segment(kind.name, 0.0, float(built.length[i]), -1,
+                    {key: val[i] for key, val in built.params.items()})
+            for i in range(len(c.turn))]
+    ev = kind.evaluator(segs)
+    m = len(segs)
+
+    def distance(sl: np.ndarray) -> np.ndarray:
+        j = np.repeat(np.arange(m), sl.shape[1])
+        pos = ev.eval(j, sl.ravel())[0].reshape(m, sl.shape[1], 3)
+        return _ray_distance(pos, c.d_in, c.d_out)
+
+    return zoomed_max(distance, np.zeros(m), np.asarray(built.length, dtype=float))[0]
+
+
+@dataclass
+class _Corner:
+    """Blends at the line-line corners: junction index, blend params, length, tangent
+    distance on each line, size."""
+
+    kind: str
+    junction: np.ndarray
+    params: list[dict]
+    length: np.ndarray
+    tangent: np.ndarray
+    size: np.ndarray
+
+
+def _corners(kind: BlendKind | None, size: float, pieces: list[_Piece], base: Path,
+             corner_j: np.ndarray, tol: np.ndarray) -> _Corner:
+    empty = _Corner("", corner_j[:0], [], np.zeros(0), np.zeros(0), np.zeros(0))
+    if kind is None or not corner_j.size:
+        return empty
+    end = _states(base, corner_j, np.array([pieces[j].length for j in corner_j]))
+    start = _states(base, corner_j + 1, np.zeros(corner_j.size))
+    d_in, d_out = end.t, start.t
+    cos = np.clip(np.einsum("ij,ij->i", d_in, d_out), -1.0, 1.0)
+    perp = d_out - cos[:, None] * d_in
+    sin = np.linalg.norm(perp, axis=1)
+    turn = np.arctan2(sin, cos)
+    len_in = np.array([pieces[j].length for j in corner_j])
+    len_out = np.array([pieces[j + 1].length for j in corner_j])
+    c = blends.Corners(end.p, d_in, d_out, turn, perp / sin[:, None], len_in, len_out)
+    room = 0.5 * np.minimum(len_in, len_out)
+    fits = kind.largest_size(turn, room) * (1.0 - 1e-9)
+    within = 0.999 * tol[corner_j] / _unit_deviation(kind, c)
+    sizes = np.minimum.reduce([np.full_like(turn, size), fits, within])
+    params: list[dict] = [{}] * len(turn)
+    length = np.zeros(len(turn))
+    for value in np.unique(sizes):  # builders take one size; corners share the common ones
+        rows = np.flatnonzero(sizes == value)
+        sub = blends.Corners(*(np.asarray(getattr(c, f))[rows] for f in
+                               ("point", "d_in", "d_out", "turn", "normal", "len_in",
+                                "len_out")))
+        built = kind.build(sub, float(value))
+        for k, r in enumerate(rows):
+            params[r] = {key: val[k] for key, val in built.params.items()}
+            length[r] = built.length[k]
+    tangent = np.array([kind.tangent_distance(turn[i:i + 1], sizes[i])[0]
+                        for i in range(len(turn))])
+    return _Corner(kind.name, corner_j, params, length, tangent, sizes)
+
+
+# --- 4. transitions and assembly -----------------------------------------------------------
+
+
+@dataclass
+class _Stretch:
+    """One segment of the result: a piece (or blend) trimmed to [offset, offset + length]."""
+
+    kind: str
+    params: dict
+    offset: float
+    length: float
+    piece: int  # index into the pieces (-1 for blends and transitions)
+    junction: int  # programmed junction a blend/transition belongs to (-1 otherwise)
+
+
+def _trimmed_pieces(pieces: list[_Piece], corners: _Corner) -> list[_Stretch]:
+    """Pieces shortened by the corner blends, with the blends between them."""
+    cut_end = np.zeros(len(pieces))
+    cut_start = np.zeros(len(pieces))
+    blend_at = {}
+    for k, j in enumerate(corners.junction):
+        cut_end[j] = corners.tangent[k]
+        cut_start[j + 1] = corners.tangent[k]
+        blend_at[int(j)] = k
+    out: list[_Stretch] = []
+    for i, p in enumerate(pieces):
+        out.append(_Stretch(p.kind, p.params, cut_start[i], p.length - cut_start[i]
+                            - cut_end[i], i, -1))
+        if i in blend_at:
+            k = blend_at[i]
+            out.append(_Stretch(corners.kind, corners.params[k], 0.0, float(corners.length[k]),
+                                -1, i))
+    return out
+
+
+def _stretch_path(stretches: list[_Stretch]) -> Path:
+    s0 = np.concatenate([[0.0], np.cumsum([x.length for x in stretches])[:-1]])
+    return Path([Segment(x.kind, float(s), x.length, -1, x.params, offset=x.offset)
+                 for x, s in zip(stretches, s0, strict=True)])
+
+
+def _non_g2(path: Path, stretches: list[_Stretch]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Junctions between consecutive stretches that are not G2: index of the stretch before,
+    turn [rad] and curvature jump [1/m] of all of them."""
+    k = len(stretches)
+    before = np.arange(k - 1)
+    lens = np.array([x.length for x in stretches[:-1]])
+    _, ta, ka, _ = path._eval_segments(before, lens)
+    _, tb, kb, _ = path._eval_segments(before + 1, np.zeros(k - 1))
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", ta, tb), -1.0, 1.0))
+    jump = np.linalg.norm(kb - ka, axis=1)
+    bad = (turn > COLLINEAR_TOL) | (jump > G2_TOL)
+    return before[bad], turn, jump
+
+
+def _with_transitions(stretches: list[_Stretch], path: Path, at: np.ndarray,
+                      scale: np.ndarray, junction_of: np.ndarray) -> list[_Stretch]:
+    """Insert transitions after stretches ``at``, cutting ``scale`` x the room (half of each
+    neighbour, shared with a transition at its other end) from both neighbours."""
+    if not at.size:
+        return stretches
+    length = np.array([x.length for x in stretches])
+    room = 0.5 * np.minimum(length[at], length[at + 1])
+    cut = room * scale
+    a_state = _states(path, at, length[at] - cut)
+    b_state = _states(path, at + 1, cut)
+    built = build_transitions(a_state.p, a_state.t, a_state.k, b_state.p, b_state.t,
+                              b_state.k)
+    trim_end = np.zeros(len(stretches))
+    trim_start = np.zeros(len(stretches))
+    trim_end[at] = cut
+    trim_start[at + 1] = cut
+    insert = {int(i): k for k, i in enumerate(at)}
+    out = []
+    for i, x in enumerate(stretches):
+        out.append(_Stretch(x.kind, x.params, x.offset + trim_start[i],
+                            x.length - trim_start[i] - trim_end[i], x.piece, x.junction))
+        if i in insert:
+            k = insert[i]
+            out.append(_Stretch(TRANSITION, {key: val[k] for key, val in built.params.items()},
+                                0.0, float(built.length[k]), -1, int(junction_of[k])))
+    return out
+
+
+# --- 5. deviation and provenance -----------------------------------------------------------
+
+
+def _polyline_distance(x: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of points x (q, 3) to the polyline ``poly`` (p, 3)."""
+    if len(poly) == 1:
+        return np.linalg.norm(x - poly[0], axis=1)
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    t = np.clip(np.einsum("qij,ij->qi", x[:, None, :] - a[None], ab) / den, 0.0, 1.0)
+    near = a[None] + t[..., None] * ab[None]
+    return np.linalg.norm(x[:, None, :] - near, axis=2).min(axis=1)
+
+
+def _window(piece: _Piece, reach: float, at_end: bool) -> np.ndarray:
+    """The programmed polyline of ``piece`` within ``reach`` of its end (or start)."""
+    s = piece.poly_s
+    if at_end:
+        k = max(int(np.searchsorted(s, piece.length - reach, side="right")) - 1, 0)
+        return piece.polyline[k:]
+    k = min(int(np.searchsorted(s, reach, side="left")) + 1, len(s))
+    return piece.polyline[:k]
+
+
+def _regions(stretches: list[_Stretch], starts: np.ndarray, n_junctions: int
+             ) -> dict[int, tuple[int, int]]:
+    """Per programmed junction, the first and last stretch index of its blend/transitions
+    (transitions at the outer ends of a blend included)."""
+    out: dict[int, tuple[int, int]] = {}
+    for i, x in enumerate(stretches):
+        if x.junction >= 0:
+            lo, hi = out.get(x.junction, (i, i))
+            out[x.junction] = (min(lo, i), max(hi, i))
+    return out
+
+
+def _deviations(path: Path, stretches: list[_Stretch], regions: dict[int, tuple[int, int]],
+                pieces: list[_Piece]) -> dict[int, tuple[float, float, float]]:
+    """Per treated junction: (deviation [m], s of the point nearest the programmed junction
+    point [m], s_lo) of its modified stretch."""
+    starts = path.segment_start
+    lens = np.array([x.length for x in stretches])
+    out = {}
+    for j, (lo, hi) in regions.items():
+        s_lo, s_hi = starts[lo], starts[hi] + lens[hi]
+        reach = 2.0 * (s_hi - s_lo) + 1e-9
+        poly_a = _window(pieces[j], reach, at_end=True)
+        poly_b = _window(pieces[j + 1], reach, at_end=False)
+
+        def distance(s: np.ndarray, poly_a=poly_a, poly_b=poly_b) -> np.ndarray:
+            pts = path.evaluate(s.ravel()).position
+            return np.minimum(_polyline_distance(pts, poly_a),
+                              _polyline_distance(pts, poly_b))[None, :]
+
+        dev, _ = zoomed_max(distance, np.array([s_lo]), np.array([s_hi]))
+        corner = pieces[j + 1].polyline[0]
+        s = np.linspace(s_lo, s_hi, DEVIATION_SAMPLES + 1)
+        s_near = s[np.argmin(np.linalg.norm(path.evaluate(s).position - corner, axis=1))]
+        out[j] = (float(dev[0]), float(s_near), float(s_lo))
+    return out
+
+
+def _tolerances(program: Program, pieces: list[_Piece], opts: ProgramPathOptions) -> np.ndarray:
+    """Tolerance per junction between pieces: the cutting one next to a cut move."""
+    cut = np.array([m.category is MoveCategory.CUT for m in program.moves])
+    last = np.array([p.first_move + p.n_moves - 1 for p in pieces])
+    first = np.array([p.first_move for p in pieces])
+    near_cut = cut[last[:-1]] | cut[first[1:]]
+    return np.where(near_cut, opts.tolerance, opts.air_tolerance)
+
+
+def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
+    """The G2 path of ``program`` (moves in mm, program frame) within ``opts`` tolerances.
+
+    Raises InputError for programs that cannot become one path (:func:`check_program`), a
+    direction reversal between two moves, a scenario blend of "none" (a program path needs
+    G2 corners) and junctions whose tolerance cannot be met.
+    """
+    check_program(program, opts.stock_top)
+    kind = get_blend(opts.blend)
+    if kind is None:
+        raise InputError("path.blend: a program path is made G2 at every corner; choose a "
+                         "blend kind (varying_radius, bezier5, ...), not none")
+    pieces = _pieces(program, opts)
+    base = _path_of(pieces)
+    m = len(pieces)
+    tol = _tolerances(program, pieces, opts)
+    j_all = np.arange(m - 1)
+    lens = np.array([p.length for p in pieces])
+    end = _states(base, j_all, lens[:-1])
+    start = _states(base, j_all + 1, np.zeros(m - 1))
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", end.t, start.t), -1.0, 1.0))
+    jump = np.linalg.norm(start.k - end.k, axis=1)
+    _refuse_reversals(program, pieces, turn)
+    is_line = np.array([p.kind == LINE for p in pieces])
+    corner_j = j_all[is_line[:-1] & is_line[1:] & (turn >= COLLINEAR_TOL)]
+    corners = _corners(kind, opts.blend_size, pieces, base, corner_j, tol)
+    stretches0 = _trimmed_pieces(pieces, corners)
+    path0 = _stretch_path(stretches0)
+    at, _, _ = _non_g2(path0, stretches0)
+    junction_of = np.array([_junction_of(stretches0, i) for i in at], dtype=int)
+    scale = np.ones(at.size)
+    feasible = np.zeros(at.size, dtype=bool)
+    for _round in range(MAX_ROUNDS):
+        stretches = _with_transitions(stretches0, path0, at, scale, junction_of)
+        path = _stretch_path(stretches)
+        regions = _regions(stretches, path.segment_start, m - 1)
+        dev = _deviations(path, stretches, regions, pieces)
+        over = np.array([dev[j][0] > tol[j] for j in junction_of], dtype=bool)
+        if not over.any():
+            break
+        dev_of = np.array([dev[j][0] for j in junction_of])
+        ratio = tol[junction_of] / np.maximum(dev_of, 1e-300)
+        smooth = turn[junction_of] < 1e-3
+        factor = np.clip(0.95 * np.where(smooth, np.sqrt(ratio), ratio), 0.05, 0.9)
+        scale = np.where(over, scale * factor, scale)
+        feasible |= ~over
+        if np.any(over & (scale * 1e9 < 1e-7)):  # pragma: no cover - guarded below
+            break
+    else:
+        over = np.array([dev[j][0] > tol[j] for j in junction_of], dtype=bool)
+    if over.any():
+        k = int(np.flatnonzero(over)[0])
+        j = int(junction_of[k])
+        raise InputError(
+            f"{_label(program, program.moves[pieces[j + 1].first_move])}: no G2 transition "
+            f"within the tolerance {tol[j] / MM:g} mm fits the junction with the move before "
+            f"(best {dev[j][0] / MM:.3g} mm); raise path.tolerance_mm")
+    moves = _move_table(program, pieces, stretches, path, dev)
+    report = _junction_report(program, pieces, stretches, path, corners, dev, turn, jump, tol,
+                              moves)
+    chains = tuple(p.chain for p in pieces if p.chain is not None)
+    warnings = []
+    if chains:
+        warnings.append(
+            f"{len(chains)} run(s) of short G1 moves ({sum(c.moves for c in chains)} moves) "
+            f"smoothed into quintic splines within {opts.tolerance / MM:g} mm (largest "
+            f"deviation {max(c.deviation for c in chains) / MM:.3g} mm)")
+    return ProgramPath(Path(path.segments, moves=moves), moves, report, chains,
+                       tuple(warnings))
+
+
+def segment_labels(path: Path) -> list[str]:
+    """A readable name per segment of a program path: its kind and the program line of the
+    move it follows ("arc at line 88 (N880)")."""
+    mid = path.segment_start + 0.5 * np.array([g.length for g in path.segments])
+    idx = path.moves.index_at(mid)
+    return [f"{g.kind} at {path.moves.label(int(i))}" for g, i in zip(path.segments, idx,
+                                                                      strict=True)]
+
+
+def _junction_of(stretches: list[_Stretch], i: int) -> int:
+    """The programmed junction (index of the piece before it) a non-G2 stretch junction
+    belongs to: a blend's own, or the junction between the two pieces."""
+    a, b = stretches[i], stretches[i + 1]
+    if a.junction >= 0:
+        return a.junction
+    if b.junction >= 0:
+        return b.junction
+    return a.piece
+
+
+def _refuse_reversals(program: Program, pieces: list[_Piece], turn: np.ndarray) -> None:
+    rev = np.flatnonzero(turn > np.pi - REVERSAL_TOL)
+    if rev.size:
+        j = int(rev[0])
+        after = program.moves[pieces[j + 1].first_move]
+        before = program.moves[pieces[j].first_move + pieces[j].n_moves - 1]
+        raise InputError(
+            f"{_label(program, after)}: the move reverses the direction of line {before.line} "
+            f"(turns {math.degrees(turn[j]):.3f} deg); the tool would have to stop there and "
+            "feedopt plans one path without stops: insert a move across (e.g. a short "
+            "sideways G1) or split the program there")
+
+
+def _move_table(program: Program, pieces: list[_Piece], stretches: list[_Stretch],
+                path: Path, dev: dict) -> MoveTable:
+    starts = path.segment_start
+    s_start = np.zeros(len(program.moves))
+    for i, x in enumerate(stretches):
+        if x.piece < 0:
+            continue
+        p = pieces[x.piece]
+        inner = p.node_s[:-1]
+        s_start[p.first_move:p.first_move + p.n_moves] = np.clip(
+            starts[i] + inner - x.offset, starts[i], starts[i] + x.length)
+        if x.piece > 0:
+            j = x.piece - 1
+            s_start[p.first_move] = dev[j][1] if j in dev else starts[i]
+    s_start[0] = 0.0
+    s_start = np.maximum.accumulate(s_start)
+    mv = program.moves
+    return MoveTable(
+        s_start=s_start,
+        line=np.array([m.line for m in mv], dtype=np.int64),
+        n_number=np.array([-1 if m.n_number is None else m.n_number for m in mv],
+                          dtype=np.int64),
+        category=program.categories.copy(),
+        kind=program.kinds.copy(),
+        feed=program.feeds_mm_s * MM,
+        spindle_rpm=np.array([math.nan if m.spindle_rpm is None else m.spindle_rpm
+                              for m in mv], dtype=float),
+        tool=np.array([-1 if m.tool is None else m.tool for m in mv], dtype=np.int64),
+    )
+
+
+def _junction_report(program, pieces, stretches, path, corners, dev, turn, jump, tol,
+                     moves) -> JunctionReport:
+    from feedopt.geometry.continuity import continuity_report
+
+    m = len(pieces)
+    cont = continuity_report(path) if len(path.segments) > 1 else None
+    # stretch junction i lies between stretch i and i+1: map it to a programmed junction
+    owner = np.full(max(len(stretches) - 1, 0), -1)
+    for i in range(len(stretches) - 1):
+        a, b = stretches[i], stretches[i + 1]
+        owner[i] = a.junction if a.junction >= 0 else (
+            b.junction if b.junction >= 0 else (a.piece if b.piece == a.piece + 1 else -1))
+    g = np.zeros((3, m - 1))
+    if cont is not None:
+        for i, j in enumerate(owner):
+            if j >= 0:
+                g[:, j] = np.maximum(g[:, j], [cont.g0[i], cont.g1[i], cont.g2[i]])
+    size = np.full(m - 1, np.nan)
+    size[corners.junction] = corners.size
+    trans_len = np.full(m - 1, np.nan)
+    for x in stretches:
+        if x.kind == TRANSITION:
+            trans_len[x.junction] = np.nansum([trans_len[x.junction], x.length])
+    treatment = []
+    deviation = np.zeros(m - 1)
+    s = np.zeros(m - 1)
+    for j in range(m - 1):
+        blend = np.isfinite(size[j])
+        trans = np.isfinite(trans_len[j])
+        treatment.append((Treatment.BLEND_TRANSITIONS if blend and trans else
+                          Treatment.BLEND if blend else
+                          Treatment.TRANSITION if trans else Treatment.NONE).value)
+        deviation[j] = dev[j][0] if j in dev else 0.0
+        s[j] = moves.s_start[pieces[j + 1].first_move]
+    before = np.array([p.first_move + p.n_moves - 1 for p in pieces[:-1]], dtype=np.int64)
+    labels = tuple(f"{moves.label(int(b))}->{int(moves.line[b + 1])}" for b in before)
+    return JunctionReport(before=before, s=s, turn=turn, curvature_jump=jump,
+                          treatment=tuple(treatment), size=size, transition_length=trans_len,
+                          deviation=deviation, tolerance=tol, g0=g[0], g1=g[1], g2=g[2],
+                          labels=labels)
+
+
+__all__ = ["ChainReport", "JunctionReport", "MoveTable", "ProgramPath", "ProgramPathOptions",
+           "Treatment", "check_program", "program_path"]
