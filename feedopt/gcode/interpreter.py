@@ -329,7 +329,9 @@ class _Interpreter:
         if "motion" in gs:
             key, w = gs["motion"]
             if key == 800:
-                s.motion = None
+                # G80 cancels canned cycles, which the reader refuses anyway. Fanuc and Haas
+                # keep G0/G1/G2/G3 modal across it (their posts write G80 in the safety line
+                # and continue with bare coordinates); RS-274/NGC would cancel the motion.
                 if axes:
                     raise self._err(b, f"G80 with axis words ({axis_text}): give G0 or G1")
             else:
@@ -354,8 +356,7 @@ class _Interpreter:
         if kind is None:
             raise self._err(b, f"axis words ({axis_text}) without "
                                "an active motion mode (G0, G1, G2, G3): "
-                               + ("G80 cancelled it" if "motion" in gs or s.moved else
-                                  "give one"))
+                               + "give one")
         sc = self._scale
         start = s.position
         if "machine coordinates" in gs:
@@ -419,8 +420,8 @@ class _Interpreter:
         s.moved = True
         if any(math.isnan(c) for c in start + mid3):
             self.notes.omitted.append(b.line)
-        else:
-            self._line(b, start, mid3, None)
+        else:  # G28 G91 Z0 (the usual home return) has no intermediate move: no note
+            self._line(b, start, mid3, None, quiet_if_zero=True)
         for a in axes:
             mid[_AXES.index(a)] = math.nan
         s.position = (mid[0], mid[1], mid[2])
@@ -440,10 +441,12 @@ class _Interpreter:
                     line=b.line, n_number=b.n_number, text=b.text)
 
     def _line(self, b: Block, start: tuple[float, float, float],
-              end: tuple[float, float, float], feed: float | None) -> None:
+              end: tuple[float, float, float], feed: float | None,
+              quiet_if_zero: bool = False) -> None:
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         if math.sqrt(dx * dx + dy * dy + dz * dz) <= SAME_POINT_MM:
-            self.notes.zero_length.append(b.line)
+            if not quiet_if_zero:
+                self.notes.zero_length.append(b.line)
             return
         if feed is None:
             kind, cat = MoveKind.RAPID, MoveCategory.RAPID

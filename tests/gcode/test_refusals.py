@@ -104,8 +104,8 @@ def test_start_position_option_and_units_before_first_move():
 def test_axis_words_without_motion_mode():
     with pytest.raises(InputError, match=r"line 1: axis words \(X1\) without an active motion"):
         parse_gcode("X1\n")
-    with pytest.raises(InputError, match=r"line 3: axis words \(Y2\) .*G80 cancelled it"):
-        parse_gcode("G0 X0 Y0 Z0\nG80\nY2\n")
+    with pytest.raises(InputError, match=r"line 2: axis words \(Y2\) .*give one"):
+        parse_gcode("G80\nY2\n")
 
 
 def test_arc_tolerance_is_a_parameter():
@@ -120,3 +120,17 @@ def test_inch_arc_tolerance_in_mm():
     # 0.0001 in = 0.00254 mm radius mismatch: over the 0.002 mm default
     with pytest.raises(InputError, match="not on one circle"):
         parse_gcode("G20\nG0 X0 Y0 Z0\nG2 X1 Y1 I1 J0.0001 F10\n")
+
+
+def test_g80_keeps_the_motion_mode_as_on_fanuc():
+    """Fanuc/Haas posts write G80 in the safety line and continue with bare coordinates; G80
+    cancels canned cycles only (group 09 there), so G1 stays modal."""
+    prog = parse_gcode("G0 X0 Y0 Z0\nG1 X1 F100\nG80\nY2\nM30\n")
+    assert [m.end for m in prog.moves] == [(1, 0, 0), (1, 2, 0)]
+    assert prog.moves[1].kind.value == "line"
+
+
+def test_home_return_without_intermediate_move_is_not_a_zero_length_note():
+    prog = parse_gcode("G0 X0 Y0 Z0\nG1 X1 F100\nG28 G91 Z0\nG90\nM30\n")
+    assert not any("zero-length" in w for w in prog.warnings)
+    assert any("G28" in w for w in prog.warnings)
