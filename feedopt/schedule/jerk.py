@@ -16,6 +16,14 @@ with constant limits, so the path is split into sections with a constant velocit
    ``max_jerk``. Its 7 constant-jerk phases (``Trajectory.profiles[0][0].t`` and ``.j``) are
    integrated in order into a piecewise-cubic s(t), so s(t) is C2 with |jerk| <= jerk_max and
    sdot <= cap <= v_max everywhere in the section.
+
+Joint accelerations q'' = q_ss sdot^2 + q_s sddot are kept within their limits by splitting
+each joint's budget: a share ``joint_acceleration_split`` goes to the velocity term (the bound
+used for the sections is lowered to sqrt(share qdd_max / |q_ss|) per sample) and the rest to
+the path acceleration (each section's ruckig acceleration limit is at most (1 - share)
+qdd_max / max|q_s| over the section). With both, |q''| <= qdd_max holds at every sample, a
+sufficient condition (thesis paths at cutting feeds never reach it; rapids round tight air
+corners do).
 """
 
 from __future__ import annotations
@@ -45,6 +53,10 @@ class JerkOptions(BaseModel):
         0.005, gt=0.0, lt=0.5, allow_inf_nan=False,
         description="largest relative variation of v_max inside one constant-cap section (the "
         "time lost to the staircase is below it)")
+    joint_acceleration_split: float = Field(
+        0.5, gt=0.0, lt=1.0, allow_inf_nan=False,
+        description="share of each joint's acceleration limit given to the velocity term "
+        "q_ss sdot^2 (the rest bounds the path acceleration term q_s sddot)")
     margin: float = Field(
         1e-9, ge=0.0, lt=1e-3, allow_inf_nan=False,
         description="relative safety applied to the section caps and to the distances of the "
@@ -135,13 +147,33 @@ def _section_caps(v: np.ndarray, tolerance: float, margin: float):
     return b, low, low * (1.0 - margin)
 
 
-def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A: float,
+def joint_acceleration_caps(problem: ScheduleProblem, share: float) -> np.ndarray:
+    """Per sample, the feed [m/s] at which the velocity term |q_ss| sdot^2 uses ``share`` of
+    every joint's acceleration limit (``inf`` where the joint path is straight)."""
+    qdd = share * np.asarray(problem.joint_acceleration_max, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.sqrt(np.min(qdd / np.abs(problem.d2q_ds2), axis=1))
+
+
+def section_accelerations(problem: ScheduleProblem, b: np.ndarray, A: float,
+                          share: float) -> np.ndarray:
+    """Per section, the path acceleration limit: ``A``, or less where (1 - share) of a joint's
+    acceleration limit over the largest |q_s| in the section is smaller."""
+    qs = np.abs(problem.dq_ds)
+    peak = np.maximum(np.maximum.reduceat(qs, b[:-1], axis=0), qs[b[1:]])
+    qdd = (1.0 - share) * np.asarray(problem.joint_acceleration_max, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.minimum(A, np.min(qdd / peak, axis=1))
+
+
+def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A: np.ndarray,
                     J: float, margin: float) -> list[float]:
     """Feeds at the section junctions (acceleration 0 there).
 
     At most both neighbouring caps; then a backward pass (every section can brake to the
     next junction feed within ``(1 - margin)`` of its length) and a forward pass (every
     section can reach it), with the exact inverse :func:`_reach` of the S-curve distance.
+    ``A`` is the acceleration limit of each section.
     """
     K = cap.size
     vj = np.empty(K + 1)
@@ -151,7 +183,7 @@ def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A:
     Ls = (L * (1.0 - margin)).tolist()
     vl = vj.tolist()
     for k in range(K - 1, -1, -1):  # backward: section k can brake to vj[k+1]
-        r = _reach(vl[k + 1], Ls[k], A, J)
+        r = _reach(vl[k + 1], Ls[k], A[k], J)
         if r < vl[k]:
             if k == 0:
                 raise InputError(
@@ -160,7 +192,7 @@ def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A:
                 )
             vl[k] = r
     for k in range(K):  # forward: section k can reach vj[k+1]
-        r = _reach(vl[k], Ls[k], A, J)
+        r = _reach(vl[k], Ls[k], A[k], J)
         if r < vl[k + 1]:
             if k == K - 1:
                 raise InputError(
@@ -172,7 +204,7 @@ def _junction_feeds(problem: ScheduleProblem, cap: np.ndarray, L: np.ndarray, A:
 
 
 def _ruckig_phases(s_from: np.ndarray, s_to: np.ndarray, vl: list[float], cap: np.ndarray,
-                   A: float, J: float) -> tuple[np.ndarray, np.ndarray]:
+                   A: np.ndarray, J: float) -> tuple[np.ndarray, np.ndarray]:
     """One ruckig call per section, from ``(0, vl[k], 0)`` to ``(L_k, vl[k+1], 0)`` under
     ``cap[k]``; returns the ``(K, 7)`` durations and jerks of the constant-jerk phases."""
     L = s_to - s_from
@@ -180,7 +212,6 @@ def _ruckig_phases(s_from: np.ndarray, s_to: np.ndarray, vl: list[float], cap: n
     otg = ruckig.Ruckig(1)
     traj = ruckig.Trajectory(1)
     inp = ruckig.InputParameter(1)
-    inp.max_acceleration = [A]
     inp.max_jerk = [J]
     inp.min_velocity = [0.0]
     inp.current_position = [0.0]
@@ -189,7 +220,9 @@ def _ruckig_phases(s_from: np.ndarray, s_to: np.ndarray, vl: list[float], cap: n
     durations = np.empty((K, 7))
     jerks = np.empty((K, 7))
     caps = cap.tolist()
+    accels = A.tolist()
     for k in range(K):
+        inp.max_acceleration = [accels[k]]
         inp.current_velocity = [vl[k]]
         inp.target_position = [L[k]]
         inp.target_velocity = [vl[k + 1]]
@@ -215,8 +248,9 @@ def plan_jerk(problem: ScheduleProblem, options: JerkOptions | None = None) -> T
     Parameters
     ----------
     problem : ScheduleProblem
-        Needs finite ``accel_max`` and ``jerk_max``. Joint acceleration limits are not
-        imposed (only what v_max already contains); the checks report them.
+        Needs finite ``accel_max`` and ``jerk_max``. Joint acceleration limits are kept by
+        splitting them between the velocity and the path-acceleration terms (module
+        docstring).
     options : JerkOptions, optional
         Section tolerance and safety margin (default: :class:`JerkOptions`).
 
@@ -227,15 +261,18 @@ def plan_jerk(problem: ScheduleProblem, options: JerkOptions | None = None) -> T
     """
     options = JerkOptions() if options is None else options
     A, J = _check_inputs(problem)
-    s, v = problem.s, problem.v_max
+    s = problem.s
+    share = options.joint_acceleration_split
+    v = np.minimum(problem.v_max, joint_acceleration_caps(problem, share))
     t_start = time.perf_counter()
 
     b, low, cap = _section_caps(v, options.tolerance, options.margin)
     check_boundary_feeds("jerk", problem, low[0], low[-1])
     L = np.diff(s[b])
-    vl = _junction_feeds(problem, cap, L, A, J, options.margin)
+    accel = section_accelerations(problem, b, A, share)
+    vl = _junction_feeds(problem, cap, L, accel, J, options.margin)
     t_passes = time.perf_counter()
-    durations, jerks = _ruckig_phases(s[b[:-1]], s[b[1:]], vl, cap, A, J)
+    durations, jerks = _ruckig_phases(s[b[:-1]], s[b[1:]], vl, cap, accel, J)
     t_ruckig = time.perf_counter()
 
     pp = ppoly_from_jerk_phases(durations.ravel(), jerks.ravel(), v0=vl[0])
