@@ -38,9 +38,14 @@ class Placement:
         return points_w @ self.transform[:3, :3].T + self.transform[:3, 3]
 
 
-def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w) -> Placement:
+def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
+               air: np.ndarray | None = None) -> Placement:
     """Put the path samples into the base frame; InputError when the tool axis is zero or the
-    path runs along it somewhere (milling needs a feed across the tool axis)."""
+    path runs along it somewhere (milling needs a feed across the tool axis).
+
+    ``air`` (n,) marks samples that do not cut (a program's rapids, plunges and retracts):
+    they may run along the tool axis; their force-model frame then takes the workpiece x
+    axis as its feed direction (no force acts there)."""
     transform = workpiece_transform(position_mm, rpy_deg)
     rot = transform[:3, :3]
     positions = samples.position @ rot.T + transform[:3, 3]
@@ -50,10 +55,17 @@ def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w) -> Placem
     axis = np.broadcast_to(rot @ (axis_w / np.linalg.norm(axis_w)), positions.shape).copy()
     tangents = samples.tangent @ rot.T
     along = np.abs(np.sum(tangents * axis, axis=1))
+    frame_tangents = tangents
+    if air is not None:
+        vertical = air & (along > 1 - 1e-6)
+        if vertical.any():
+            x = rot[:, 0] if abs(rot[:, 0] @ axis[0]) < 0.9 else rot[:, 1]
+            frame_tangents = np.where(vertical[:, None], x, tangents)
+        along = np.where(air, 0.0, along)
     if np.any(along > 1 - 1e-6):
         i = int(np.argmax(along))
         raise InputError(f"the path runs along the tool axis at sample {i} "
                          f"(s = {samples.s[i] / MM:.3f} mm): milling needs a feed direction "
                          "across the tool axis")
     return Placement(transform=transform, positions=positions, tool_axes=axis,
-                     tangents=tangents, frames=feed_frames(tangents, axis))
+                     tangents=tangents, frames=feed_frames(frame_tangents, axis))

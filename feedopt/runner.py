@@ -23,7 +23,9 @@ from feedopt.cell import Placement, place_path
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints
+from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
+from feedopt.process.program import apply_program
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
@@ -117,7 +119,10 @@ class LawResult:
 
 
 def _segment_names(path: ToolPath) -> list[str]:
-    """Readable name of each path segment for messages ("line 3", "circle blend of corner 2")."""
+    """Readable name of each path segment for messages ("line 3", "circle blend of corner 2",
+    "arc at line 88 (N880)" on a program)."""
+    if path.moves is not None:
+        return segment_labels(path)
     return [f"line {i}" if seg.kind == "line" else
             f"{seg.kind} blend of corner {seg.corner_index}" for i, seg in enumerate(path.segments)]
 
@@ -162,8 +167,11 @@ def prepare(
 
     t0 = time.perf_counter()
     path = path_from_section(scenario.path, base_dir)
+    program_notes: list[str] = []
+    if path.moves is not None:
+        scenario, program_notes = apply_program(scenario, path.moves, scenario.path.file)
     samples = _sample(path, spacing)
-    warnings = scenario_warnings(scenario)
+    warnings = scenario_warnings(scenario) + list(path.notes) + program_notes
     if path.dropped_waypoints:
         shown = ", ".join(str(i) for i in path.dropped_waypoints[:10])
         more = len(path.dropped_waypoints) - 10
@@ -176,9 +184,11 @@ def prepare(
 
     t0 = time.perf_counter()
     wp = scenario.workpiece
-    placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis)
+    air = (None if path.moves is None
+           else path.moves.category[path.moves.index_at(samples.s)] != "cut")
+    placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis, air=air)
     process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
-                                 samples, _segment_names(path))
+                                 samples, _segment_names(path), moves=path.moves)
     warnings += process.warnings
     times["process"] = time.perf_counter() - t0
     progress(f"[2/5] process: tool {process.tool.name}, {scenario.cut.type} cut at "
@@ -379,8 +389,10 @@ def validate_scenario(scenario_path: str | Path) -> str:
     scenario, base_dir = load_scenario(scenario_path)
     load_tool(resolve(base_dir, scenario.tool, "tool file"))
     table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
-    table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     path = path_from_section(scenario.path, base_dir)
+    if path.moves is not None:
+        scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
+    table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
             f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}")

@@ -33,6 +33,15 @@ from feedopt.yamlio import excerpt, parse_yaml
 # Allowed laws and blends come from their registries (feedopt.schedule.laws,
 # feedopt.geometry.registry): a new law or blend kind needs no edit here.
 LAWS = law_names()  # the built-in laws, for defaults and CLI help
+#: the baseline each kind of path is compared with: constant (one nominal feed) or the
+#: program's own feeds; a scenario without schedule.laws runs every law but the other one
+BASELINE_OF_PROGRAMS, BASELINE_OF_PATHS = "programmed", "constant"
+
+
+def default_laws(generator: str) -> list[str]:
+    """Every registered law except the baseline that does not apply to ``generator``."""
+    other = BASELINE_OF_PATHS if generator == "gcode" else BASELINE_OF_PROGRAMS
+    return [law for law in LAW_REGISTRY if law != other]
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Vector3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
@@ -71,16 +80,18 @@ class WorkpieceSection(_Strict):
 class PathSection(_Strict):
     """Tool path in the workpiece frame: a generator or a waypoint file, and its blends."""
 
-    generator: Literal["triangle_wave", "square_wave", "line", "csv"] = Field(
+    generator: Literal["triangle_wave", "square_wave", "line", "csv", "gcode"] = Field(
         description="triangle_wave | square_wave (length/height/waves), line (start/end), "
-        "csv (file with columns x_mm,y_mm,z_mm)")
+        "csv (file with columns x_mm,y_mm,z_mm), gcode (a CAM program: file; its F words are "
+        "the nominal feed per move, its S word the spindle speed)")
     length_mm: PositiveFloat = Field(304.8, description="wave length along x (mm)")
     height_mm: PositiveFloat = Field(76.2, description="wave height along y (mm)")
     waves: Annotated[int, Field(ge=1)] = Field(3, description="number of waves")
     start_mm: Vector3 = Field([0.0, 0.0, 0.0], description="line start (mm)")
     end_mm: Vector3 = Field([203.2, -9.525, 0.0], description="line end (mm); the chapter-4 "
                             "cut drifts to the right (-y) into the material (down milling)")
-    file: str | None = Field(None, description="waypoint CSV for generator csv")
+    file: str | None = Field(None, description="waypoint CSV (generator csv) or G-code program "
+                             "(generator gcode; its G54 origin is the workpiece frame's)")
     z_mm: FiniteFloat = Field(0.0, description="height of generated waves in W (mm)")
     blend: str = Field("varying_radius", description="corner blend kind (thesis 3.3): one of "
                        "the registered kinds (feedopt path --help lists them) or none")
@@ -90,6 +101,24 @@ class PathSection(_Strict):
         0.1, description="sample spacing along the path (mm, >= 0.001)")
     drop_repeated_waypoints: bool = Field(False, description="drop repeated consecutive "
                                           "waypoints (and say so) instead of refusing them")
+    tolerance_mm: PositiveFloat = Field(0.01, description="gcode: largest deviation of the "
+                                        "smoothed path from the program next to cutting moves "
+                                        "(corner blends, G2 transitions, smoothed chains) (mm)")
+    air_tolerance_mm: PositiveFloat = Field(0.5, description="gcode: the same between air "
+                                            "moves (rapids, plunges, retracts) (mm)")
+    arc_tolerance_mm: PositiveFloat = Field(0.002, description="gcode: largest difference of "
+                                            "an arc's start and end radius (mm)")
+    stock_top_mm: FiniteFloat = Field(0.0, description="gcode: Z of the stock's top face in "
+                                      "the program frame (CAM convention: G54 Z0 on top); "
+                                      "cut moves above it are in air, plunges below it refused")
+    chain_max_move_mm: PositiveFloat = Field(2.0, description="gcode: G1 cut moves up to this "
+                                             "long may be smoothed together as a free-form "
+                                             "chain (mm)")
+    chain_max_turn_deg: Annotated[float, Field(gt=0, le=90, allow_inf_nan=False)] = Field(
+        15.0, description="gcode: ... when consecutive moves turn by at most this (deg)")
+    tool_number: Annotated[int, Field(ge=0)] | None = Field(
+        None, description="gcode: the program's tool number (T) the scenario's tool file "
+        "describes (default: the program's only tool)")
 
     @field_validator("blend")
     @classmethod
@@ -102,6 +131,8 @@ class PathSection(_Strict):
     def _needs_file(self) -> PathSection:
         if self.generator == "csv" and not self.file:
             raise ValueError("generator 'csv' needs 'file' (a waypoint CSV: x_mm,y_mm,z_mm)")
+        if self.generator == "gcode" and not self.file:
+            raise ValueError("generator 'gcode' needs 'file' (a G-code program)")
         return self
 
 
@@ -143,7 +174,8 @@ class CutSection(_Strict):
     milling: Literal["down", "up"] = Field("down", description="down (climb): the material "
         "is on the right of the feed direction seen from the spindle (cutter turning clockwise "
         "seen from above, Altintas' frame); up: on the left")
-    spindle_rpm: PositiveFloat = Field(description="spindle speed (rev/min)")
+    spindle_rpm: PositiveFloat | None = Field(None, description="spindle speed (rev/min); "
+                                              "required unless a G-code program sets it (S)")
     extrapolate_coefficients: bool = Field(False, description="allow cutting coefficients "
                                            "outside the calibrated speed range")
 
@@ -160,10 +192,15 @@ class CutSection(_Strict):
 
 
 class FeedSection(_Strict):
-    nominal_mm_s: PositiveFloat = Field(description="nominal feed; the constant law runs at it")
+    nominal_mm_s: PositiveFloat | None = Field(None, description="nominal feed; the constant "
+                                               "law runs at it (required, except with a G-code "
+                                               "program, whose F words are the nominal feed)")
     max_mm_s: PositiveFloat | None = Field(None, description="largest feed any law may use "
                                            "(default: the nominal feed, so the deflection "
                                            "limit only lowers it, as in the thesis)")
+    rapid_mm_s: PositiveFloat | None = Field(None, description="gcode: largest TCP speed of "
+                                             "rapids (G0) (default: only the robot's joint "
+                                             "velocity limits)")
     start_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the start")
     end_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the end")
 
@@ -198,8 +235,10 @@ class LimitsSection(_Strict):
 
 
 class ScheduleSection(_Strict):
-    laws: list[str] = Field(list(LAWS), min_length=1, description="timing laws to run: "
-                            + ", ".join(LAWS))
+    laws: list[str] = Field(default_laws("line"), min_length=1, description="timing laws to "
+                            "run: " + ", ".join(LAWS) + " (default: all but the baseline that "
+                            "does not apply: programmed for generated paths and CSVs, constant "
+                            "for G-code programs)")
     law_options: dict[str, dict] = Field(
         {}, description="per-law options, e.g. {convex: {...}}; the fields of each law are "
         "listed under schedule.law_options.<law> below")
@@ -276,13 +315,40 @@ class Scenario(_Strict):
     schedule: ScheduleSection = ScheduleSection()
     export: ExportSection = ExportSection()
 
+    @model_validator(mode="before")
+    @classmethod
+    def _default_laws(cls, raw):
+        """schedule.laws, when not given, from the kind of path."""
+        if isinstance(raw, dict) and isinstance(raw.get("path"), dict):
+            sched = raw.get("schedule", {})
+            if isinstance(sched, dict) and "laws" not in sched:
+                gen = raw["path"].get("generator")
+                raw = {**raw, "schedule": {**sched, "laws": default_laws(str(gen))}}
+        return raw
+
+    @model_validator(mode="after")
+    def _program_sets_feed(self) -> Scenario:
+        program = self.path.generator == "gcode"
+        if program and self.feed.nominal_mm_s is not None:
+            raise ValueError("feed.nominal_mm_s: with path.generator gcode the program's F "
+                             "words are the nominal feed of every move; remove "
+                             "feed.nominal_mm_s (feed.max_mm_s may still cap it)")
+        if not program and self.feed.nominal_mm_s is None:
+            raise ValueError("feed.nominal_mm_s: required (the nominal feed, mm/s)")
+        if not program and self.cut.spindle_rpm is None:
+            raise ValueError("cut.spindle_rpm: required (the spindle speed, rev/min)")
+        if self.feed.rapid_mm_s is not None and not program:
+            raise ValueError("feed.rapid_mm_s: only a G-code program has rapids; remove it")
+        return self
+
 
 def scenario_warnings(scenario: Scenario) -> list[str]:
     """What a valid scenario asks for that is probably not what the user meant, and what the
     run will do about it (printed, and kept in summary.json and the report)."""
     out = []
     feed = scenario.feed
-    if feed.max_mm_s is not None and feed.max_mm_s < feed.nominal_mm_s:
+    if (feed.max_mm_s is not None and feed.nominal_mm_s is not None
+            and feed.max_mm_s < feed.nominal_mm_s):
         out.append(f"feed.max_mm_s = {feed.max_mm_s:g} mm/s is below feed.nominal_mm_s = "
                    f"{feed.nominal_mm_s:g} mm/s: every optimised law is capped at "
                    f"{feed.max_mm_s:g} mm/s, while the constant baseline still runs at the "

@@ -22,6 +22,8 @@ def quick_scenario(tmp_path) -> Callable[..., Path]:
         doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
         doc["tool"] = str(SCENARIOS / doc["tool"])
         doc["material"] = str(SCENARIOS / doc["material"])
+        if doc["path"].get("file"):
+            doc["path"]["file"] = str(SCENARIOS / doc["path"]["file"])
         for dotted, value in changes.items():
             section, key = dotted.split("__")
             doc.setdefault(section, {})[key] = value

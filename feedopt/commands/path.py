@@ -1,4 +1,5 @@
-"""``feedopt path``: build an LIPB path from waypoints, sample it, report its continuity."""
+"""``feedopt path``: build an LIPB path from waypoints, or the G2 path of a G-code program,
+sample it, report its continuity (and, for a program, the deviation at every junction)."""
 
 from __future__ import annotations
 
@@ -19,11 +20,16 @@ BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.squa
            "builtin:line": waves.straight_line}
 MAX_SAMPLES = 20_000_000
 HEADER = "s_mm,x_mm,y_mm,z_mm,tx,ty,tz,kx_1_mm,ky_1_mm,kz_1_mm"
+PROGRAM_HEADER = HEADER + ",line,n,move,nominal_feed_mm_s"
+#: file suffixes read as G-code programs (CAM post-processor outputs)
+PROGRAM_SUFFIXES = (".nc", ".ngc", ".tap", ".gcode", ".cnc", ".mpf", ".eia", ".iso")
+DEFAULT_PROGRAM_BLEND_SIZE_MM = 12.7
 DEFAULT_BLEND = "varying_radius"
 REPEAT_HINT = "pass --drop-repeated"
 # options of feedopt path itself: a size parameter may not be called like one of them
 _FIXED_OPTIONS = ("--help", "--blend", "--spacing", "--out", "--plot", "--drop-repeated",
-                  "--max-rows")
+                  "--max-rows", "--tolerance-mm", "--air-tolerance-mm", "--stock-top",
+                  "--arc-tolerance")
 
 
 def _option(size_name: str) -> str:
@@ -42,8 +48,9 @@ def add_parser(subparsers) -> None:
             "Linear interpolation with a blend at every corner (thesis 3.3). Writes the path "
             "sampled by arc length and prints the G0/G1/G2 jump at every junction."),
     )
-    p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm, or one of "
-                   + ", ".join(BUILTIN) + " (thesis test paths)")
+    p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm, one of "
+                   + ", ".join(BUILTIN) + " (thesis test paths), or a G-code program ("
+                   + ", ".join(PROGRAM_SUFFIXES) + ")")
     p.add_argument("--blend", choices=blend_names(), default=DEFAULT_BLEND,
                    help=f"corner blend (default: {DEFAULT_BLEND})")
     # one size option per size parameter of the registered blend kinds (--radius, ...)
@@ -59,6 +66,16 @@ def add_parser(subparsers) -> None:
     p.add_argument("--plot", metavar="PNG", help="draw the path and its curvature here")
     p.add_argument("--drop-repeated", action="store_true",
                    help="drop repeated consecutive waypoints instead of refusing them")
+    p.add_argument("--tolerance-mm", type=float, default=0.01, metavar="MM",
+                   help="program: largest deviation from the program next to cuts (default "
+                   "0.01)")
+    p.add_argument("--air-tolerance-mm", type=float, default=0.5, metavar="MM",
+                   help="program: the same between air moves (default 0.5)")
+    p.add_argument("--stock-top", type=float, default=0.0, metavar="MM",
+                   help="program: Z of the stock top; plunges below it are refused (default 0)")
+    p.add_argument("--arc-tolerance", type=float, default=0.002, metavar="MM",
+                   help="program: largest start/end radius difference of an arc (default "
+                   "0.002)")
     p.add_argument("--max-rows", type=int, default=40,
                    help="junction rows printed (head and tail; default 40, 0 = all, >= 0)")
     p.set_defaults(func=run)
@@ -99,7 +116,14 @@ def _size(args: argparse.Namespace) -> float:
     return _positive_mm(given[kind.size.name], own, "12.7")
 
 
+def is_program(name: str) -> bool:
+    """True for a file name with a G-code suffix."""
+    return name.lower().endswith(PROGRAM_SUFFIXES)
+
+
 def run(args: argparse.Namespace) -> int:
+    if is_program(args.waypoints):
+        return _run_program(args)
     size, spacing = _check_args(args)
     w = BUILTIN[args.waypoints]() if args.waypoints in BUILTIN else read_waypoints_csv(
         args.waypoints)
@@ -113,6 +137,52 @@ def run(args: argparse.Namespace) -> int:
             f"{path.length * MM_PER_M / (MAX_SAMPLES - 1):.3g} mm")
     _print_summary(args, path, len(w), size)
     _write_outputs(args, path, spacing, w)
+    return 0
+
+
+def _run_program(args: argparse.Namespace) -> int:
+    """``feedopt path PROGRAM.nc``: the program's G2 path within the tolerances."""
+    from feedopt.gcode import read_gcode
+    from feedopt.geometry.program_path import ProgramPathOptions, program_path
+
+    given = any(getattr(args, _dest(name), None) is not None for name in size_parameters())
+    size = _size(args) if given else DEFAULT_PROGRAM_BLEND_SIZE_MM * MM
+    spacing = _positive_mm(args.spacing, "--spacing", "0.1")
+    tol = _positive_mm(args.tolerance_mm, "--tolerance-mm", "0.01")
+    air = _positive_mm(args.air_tolerance_mm, "--air-tolerance-mm", "0.5")
+    arc_tol = _positive_mm(args.arc_tolerance, "--arc-tolerance", "0.002")
+    if not np.isfinite(args.stock_top):
+        raise InputError(f"--stock-top must be a finite number of mm, got {args.stock_top}")
+    if args.max_rows < 0:
+        raise InputError(f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}")
+    check_data_and_plot(args.out, args.plot, [args.waypoints], "path.csv", "path.png")
+    program = read_gcode(args.waypoints, arc_tolerance_mm=arc_tol / MM)
+    result = program_path(program, ProgramPathOptions(
+        tolerance=tol, air_tolerance=air, blend=args.blend, blend_size=size,
+        stock_top=args.stock_top * MM))
+    path = result.path
+    n = int(np.ceil(path.length / spacing)) + 1
+    if n > MAX_SAMPLES:
+        raise InputError(
+            f"--spacing {args.spacing} mm gives {n} samples over {path.length * MM_PER_M:.6g} mm "
+            f"(limit {MAX_SAMPLES}); use a spacing of at least "
+            f"{path.length * MM_PER_M / (MAX_SAMPLES - 1):.3g} mm")
+    kinds = path.segment_kind
+    counts = ", ".join(f"{k} {kinds.count(k)}" for k in dict.fromkeys(kinds))
+    cats = ", ".join(f"{c} {int(np.sum(result.moves.category == c))}"
+                     for c in ("cut", "plunge", "retract", "rapid"))
+    print(f"program: {args.waypoints}: {len(program.moves)} moves ({cats})")
+    for w in (*program.warnings, *result.warnings):
+        print(f"note: {w}")
+    for c in result.chains:
+        print(f"smoothed chain: lines {c.first_line}-{c.last_line} ({c.moves} moves, "
+              f"{c.length * MM_PER_M:.3f} mm): deviation {c.deviation * MM_PER_M:.3g} mm, "
+              f"coverage {c.coverage * MM_PER_M:.3g} mm")
+    print(f"blend: {args.blend} up to {size * MM_PER_M:g} mm; tolerance {tol * MM_PER_M:g} mm "
+          f"(air {air * MM_PER_M:g} mm)")
+    print(f"path length: {path.length * MM_PER_M:.6f} mm, segments: {len(kinds)} ({counts})")
+    print(result.junctions.table(max_rows=args.max_rows or None))
+    _write_outputs(args, path, spacing, program.ends * MM, program=result)
     return 0
 
 
@@ -156,7 +226,27 @@ def _print_summary(args: argparse.Namespace, path: Path, n_raw: int, size: float
     print(report.table(max_rows=args.max_rows or None))
 
 
-def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.ndarray) -> None:
+def _write_program_csv(out, data: np.ndarray, path: Path, s: np.ndarray) -> None:
+    """The samples with each one's program line, N number, move category and programmed
+    feed (empty on rapids)."""
+    moves = path.moves
+    idx = moves.index_at(s)
+    numbers = np.char.mod("%.12g", data)
+    feed = moves.feed[idx] * MM_PER_M
+    feed_text = np.where(np.isfinite(feed), np.char.mod("%.6g", feed), "")
+    n_text = np.where(moves.n_number[idx] >= 0, moves.n_number[idx].astype(str), "")
+    cols = [*numbers.T, moves.line[idx].astype(str), n_text, moves.category[idx], feed_text]
+    rows = cols[0]
+    for c in cols[1:]:
+        rows = np.char.add(np.char.add(rows, ","), c)
+    with open(out, "w", encoding="utf-8") as fh:
+        fh.write(PROGRAM_HEADER + "\n")
+        fh.write("\n".join(rows.tolist()))
+        fh.write("\n")
+
+
+def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.ndarray,
+                   program=None) -> None:
     """The samples CSV (--out) and the figure (--plot)."""
     files: list[tuple[str, Writer, str]] = []
     done: list[str] = []
@@ -164,10 +254,21 @@ def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.n
         pts = path.sample(spacing)
         data = np.column_stack([pts.s * MM_PER_M, pts.position * MM_PER_M, pts.tangent,
                                 pts.curvature * MM])  # curvature 1/m -> 1/mm
-        files.append((args.out, lambda tmp: np.savetxt(tmp, data, delimiter=",", header=HEADER,
-                                                       comments="", fmt="%.12g"), "--out"))
+        if path.moves is None:
+            files.append((args.out, lambda tmp: np.savetxt(
+                tmp, data, delimiter=",", header=HEADER, comments="", fmt="%.12g"), "--out"))
+        else:
+            files.append((args.out, lambda tmp: _write_program_csv(tmp, data, path, pts.s),
+                          "--out"))
         done.append(f"wrote {len(pts.s)} samples to {args.out}")
-    if args.plot is not None:
+    if args.plot is not None and program is not None:
+        from feedopt.geometry.plot import plot_program_path
+
+        files.append((args.plot, lambda tmp: plot_program_path(
+            program, tmp, spacing=max(spacing, path.length / 50000),
+            title=f"{args.waypoints}: {args.blend}"), "--plot"))
+        done.append(f"wrote {args.plot}")
+    elif args.plot is not None:
         from feedopt.geometry.plot import plot_path
 
         files.append((args.plot, lambda tmp: plot_path(

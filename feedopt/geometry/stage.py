@@ -8,6 +8,7 @@ scenario module.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from pathlib import Path as FilePath
 from typing import Any
@@ -15,7 +16,9 @@ from typing import Any
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.gcode import read_gcode
 from feedopt.geometry.path import Path, build_lipb_path
+from feedopt.geometry.program_path import ProgramPath, ProgramPathOptions, program_path
 from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
 from feedopt.geometry.waypoints import read_waypoints_csv
 from feedopt.units import MM
@@ -57,13 +60,38 @@ def waypoints_from_section(section: Any, base_dir: FilePath,
     return w
 
 
+def program_options(section: Any) -> ProgramPathOptions:
+    """The program-path options of a ``gcode`` path section (mm -> m)."""
+    return ProgramPathOptions(
+        tolerance=section.tolerance_mm * MM, air_tolerance=section.air_tolerance_mm * MM,
+        blend=section.blend, blend_size=section.blend_size_mm * MM,
+        chain_max_move=section.chain_max_move_mm * MM,
+        chain_max_turn=math.radians(section.chain_max_turn_deg),
+        stock_top=section.stock_top_mm * MM)
+
+
+def program_from_section(section: Any, base_dir: FilePath,
+                         resolve: Resolver = resolve_file) -> ProgramPath:
+    """The smoothed path of the section's G-code program, with its provenance and report."""
+    file = resolve(base_dir, section.file, "path.file (G-code program)")
+    program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm)
+    result = program_path(program, program_options(section))
+    notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
+    result.path.notes = notes
+    return result
+
+
 def path_from_section(section: Any, base_dir: FilePath, *,
                       resolve: Resolver = resolve_file) -> Path:
     """The scenario's path (:func:`~feedopt.geometry.path.build_lipb_path` of its waypoints
     with its blend); every geometry error is prefixed with the section, e.g.
     ``path (csv, blend circle 12.7 mm): ...``, and the repeated-waypoint refusal points at
     ``path.drop_repeated_waypoints``. The path's ``dropped_waypoints`` lists the waypoints it
-    dropped."""
+    dropped. A ``gcode`` section gives the program's path (:func:`program_from_section`),
+    whose ``moves`` say where every programmed move lies and ``notes`` what the reader and
+    the smoothing recorded."""
+    if section.generator == "gcode":
+        return program_from_section(section, base_dir, resolve).path
     try:
         return build_lipb_path(waypoints_from_section(section, base_dir, resolve),
                                section.blend, section.blend_size_mm * MM,

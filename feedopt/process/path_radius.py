@@ -21,7 +21,10 @@ REFUSE_BELOW = 0.5
 
 
 def check_path_radius(s: np.ndarray, curvature: np.ndarray, segment: np.ndarray,
-                      segment_names: list[str], tool_radius: float) -> list[str]:
+                      segment_names: list[str], tool_radius: float,
+                      cutting: np.ndarray | None = None,
+                      tool_axis: np.ndarray | None = None,
+                      tangent: np.ndarray | None = None, refuse: bool = True) -> list[str]:
     """Warnings for path radii below the cutter radius; InputError below ``REFUSE_BELOW`` R.
 
     Parameters
@@ -29,8 +32,28 @@ def check_path_radius(s: np.ndarray, curvature: np.ndarray, segment: np.ndarray,
     s : (n,) arc length [m]; curvature : (n, 3) curvature vector [1/m]
     segment : (n,) segment index of each sample; segment_names : a readable name per segment
     tool_radius : cutter radius R [m]
+    cutting : (n,) samples where the tool cuts (default: all); the others are not checked
+    tool_axis : (3,) tool axis: then the radius is that of the path projected on the plane
+        across the axis, |T_h x K_h| / |T_h|^3 (T_h, K_h the projected tangent and curvature
+        vector), the turn the cutter sees; a path bending up out of the cut (a retract) does
+        not turn there. Needs ``tangent``.
+    tangent : (n, 3) unit tangents, with ``tool_axis``
+    refuse : False (a G-code program, whose sharp corners are the programmer's): warn below
+        R/2 as well instead of refusing
     """
-    kappa = np.linalg.norm(curvature, axis=1)
+    curvature = np.asarray(curvature, dtype=float)
+    if tool_axis is not None and tangent is not None:
+        axis = np.asarray(tool_axis, dtype=float) / np.linalg.norm(tool_axis)
+        th = tangent - np.outer(tangent @ axis, axis)
+        kh = curvature - np.outer(curvature @ axis, axis)
+        speed = np.linalg.norm(th, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kappa = np.where(speed > 1e-6,
+                             np.linalg.norm(np.cross(th, kh), axis=1) / speed**3, 0.0)
+    else:
+        kappa = np.linalg.norm(curvature, axis=1)
+    if cutting is not None:
+        kappa = np.where(cutting, kappa, 0.0)
     tight = kappa * tool_radius > 1.0
     if not np.any(tight):
         return []
@@ -42,6 +65,10 @@ def check_path_radius(s: np.ndarray, curvature: np.ndarray, segment: np.ndarray,
     places = int(np.count_nonzero(np.diff(tight.astype(np.int8)) == 1) + tight[0])
     numbers = (f"the tightest path radius is {r / MM:.3g} mm, {where}, for a cutter radius of "
                f"{tool_radius / MM:.4g} mm")
+    if r < REFUSE_BELOW * tool_radius and not refuse:
+        return [f"{numbers} ({places} place(s) tighter than the cutter): the program turns "
+                "sharply in the material there and the stated straight-cut engagement does not "
+                "describe the cutter going round the corner; feeds there are approximate"]
     if r < REFUSE_BELOW * tool_radius:
         raise InputError(
             f"{numbers}: below half the cutter radius a quarter of the cutter moves against the "

@@ -88,20 +88,38 @@ def feed_range_warnings(table: CoefficientTable, feeds: list[tuple[str, float]],
     return out
 
 
+def in_program_air(engagement: Engagement, moves, samples, stock_top: float) -> Engagement:
+    """The engagement of a program path: none on rapids, plunges and retracts and above the
+    stock top; on cut moves the stated one, its axial depth limited to the material below
+    the tool tip (stock top - z), so ramps and helices enter the cut gradually."""
+    category = moves.category[moves.index_at(samples.s)]
+    depth = np.minimum(engagement.axial_depth, stock_top - samples.position[:, 2])
+    air = (category != "cut") | (depth <= 1e-9)
+    depth = np.where(air, engagement.axial_depth, depth)
+    return Engagement(entry=np.where(air, 0.0, engagement.entry),
+                      exit=np.where(air, 0.0, engagement.exit), axial_depth=depth)
+
+
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
-                       segment_names: list[str]) -> ProcessAlongPath:
+                       segment_names: list[str], moves=None) -> ProcessAlongPath:
     """Load the tool and material of ``scenario`` and state the engagement of every sample.
 
     ``resolve(relative, what)`` finds a file named in the scenario. ``samples`` is the
-    sampled path (:class:`feedopt.geometry.path.PathPoints`).
+    sampled path (:class:`feedopt.geometry.path.PathPoints`); ``moves`` the path's program
+    provenance (:class:`feedopt.geometry.program_path.MoveTable`) when it comes from a
+    G-code program: then only cut moves in the material cut (:func:`in_program_air`).
     """
     cut, feed = scenario.cut, scenario.feed
     tool = load_tool(resolve(scenario.tool, "tool file"))
     table = load_coefficients(resolve(scenario.material, "material file"))
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     engagement = engagement_of(cut, tool, samples.s)
+    if moves is not None:
+        engagement = in_program_air(engagement, moves, samples, scenario.path.stock_top_mm * MM)
     warnings = check_path_radius(samples.s, samples.curvature, samples.segment, segment_names,
-                                 0.5 * tool.diameter)
+                                 0.5 * tool.diameter, cutting=engagement.exit > engagement.entry,
+                                 tool_axis=np.asarray(scenario.workpiece.tool_axis),
+                                 tangent=samples.tangent, refuse=moves is None)
     feeds = [("feed.nominal_mm_s", feed.nominal_mm_s * MM)]
     if feed.max_mm_s is not None:
         feeds.append(("feed.max_mm_s", feed.max_mm_s * MM))

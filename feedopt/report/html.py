@@ -40,7 +40,8 @@ figcaption { font-size: 0.9em; color: #444; }
 
 _LEGEND = (
     "T: cycle time; T*: lower bound on the cycle time of the law's problem; "
-    "T(constant): cycle time at the constant nominal feed; defl./limit: largest predicted "
+    "T(baseline): cycle time of the baseline, the constant nominal feed (or, for a G-code "
+    "program, the programmed law: its own F words); defl./limit: largest predicted "
     "deflection over the limit (<= 1 meets it); verified: the replay shows the law kept "
     "every promise it makes (the constant baseline does not promise the limit, topp does not "
     "promise C2); exported: the trajectory also meets the limit, is C2 and jerk-bounded, so "

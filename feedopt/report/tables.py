@@ -18,7 +18,7 @@ HEADERS: tuple[tuple[str, bool], ...] = (
     ("T [s]", True),
     ("T* [s]", True),
     ("T/T*", True),
-    ("T/T(constant)", True),
+    ("T/T(baseline)", True),
     ("max defl. [mm]", True),
     ("defl./limit", True),
     ("max feed [mm/s]", True),
@@ -114,7 +114,9 @@ def ramp_rows(summary: Mapping) -> list[list[str]]:
 def comparison_rows(summary: Mapping) -> list[list[str]]:
     """Formatted cells (see :data:`HEADERS`) of one run, one row per law in file order."""
     laws = summary["laws"]
-    t_const = laws.get("constant", {}).get("cycle_time_s")
+    # the baseline: the constant nominal feed, or a G-code program's own feeds
+    base = next((laws[b] for b in ("constant", "programmed") if b in laws), {})
+    t_const = base.get("cycle_time_s")
     rows = []
     for law, r in laws.items():
         ratio = deflection_ratio(summary, law)

@@ -40,7 +40,7 @@ class BoundInputs:
 
     model: DeflectionModel
     limit: float  # deflection limit [m]
-    max_feed: float  # [m/s]
+    max_feed: float | np.ndarray  # [m/s], one value or one per sample (a program's F)
     dq_ds: np.ndarray  # (n, dof) [rad/m]
     joint_velocity_max: np.ndarray  # (dof,) [rad/s]
     torque_max: float = np.inf  # spindle [N m]
@@ -229,12 +229,13 @@ class DeflectionConstraint:
 
 @dataclass(frozen=True)
 class MaxFeedConstraint:
-    """The largest feed the user allows (``feed.max_mm_s``, default the nominal feed)."""
+    """The largest feed the user allows (``feed.max_mm_s``, default the nominal feed; for a
+    G-code program per sample: its move's F, or the rapid limit on rapids)."""
 
     name: str = "max_feed"
 
     def v_max(self, inputs: BoundInputs) -> np.ndarray:
-        return np.full(inputs.n, float(inputs.max_feed))
+        return np.broadcast_to(np.asarray(inputs.max_feed, dtype=float), (inputs.n,)).copy()
 
 
 @dataclass(frozen=True)

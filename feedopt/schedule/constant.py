@@ -190,6 +190,9 @@ def plan_constant(problem: ScheduleProblem, options: ConstantOptions | None = No
         (``stats.cruise_lowered``, and said in ``notes``).
     """
     options = ConstantOptions() if options is None else options
+    if problem.programmed_feed is not None:
+        raise LawNotApplicable("a G-code program has a feed per move and rapids; the constant "
+                               "law runs one feed: its baseline is the programmed law")
     ramp = options.ramp
     _check_inputs(problem, ramp)
     notes: list[str] = []

@@ -161,6 +161,7 @@ class DeflectionModel:
             curv = y0 - 2.0 * y1 + y2
             towards = curv < 0 if worst == "max" else curv > 0
             shift = np.where(towards, 0.5 * (y0 - y2) / curv, 0.0)
+        shift = np.where(np.isfinite(shift), shift, 0.0)  # samples without force: inf - inf
         vertex = np.take_along_axis(window, j[:, None], axis=1)[:, 0] + np.clip(shift, -1, 1) * h
         vv = evaluate(sl, vertex[:, None])[:, 0]
         stack = np.column_stack([value.max(axis=1) if worst == "max" else value.min(axis=1),

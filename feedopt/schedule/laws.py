@@ -129,5 +129,9 @@ for _spec in (
                         "Clarabel), quintic Hermite output"),
     LawSpec("jerk", "feedopt.schedule.jerk", continuity=2, colour="tab:purple", order=1,
             description="jerk-limited sections (ruckig) with backward/forward junction passes"),
+    LawSpec("programmed", "feedopt.schedule.programmed", continuity=2, baseline=True,
+            colour="0.6", order=1,
+            description="a G-code program's own feeds (F per move, rapids at the robot's "
+                        "limits), ignoring the deflection limit: the CNC baseline"),
 ):
     register_law(_spec)

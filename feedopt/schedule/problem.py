@@ -45,6 +45,11 @@ class ScheduleProblem:
         ``"varying_radius"``) of each segment.
     key_point_spacing : float
         Spacing l of the chapter-4 key points along lines [m] (thesis 4.2); 0 = not used.
+    programmed_feed : (n,) array or None
+        A G-code program's own feed at each sample [m/s] (its move's F; on rapids the rapid
+        limit, ``inf`` for none), capped by the joint velocity limits; None for other paths
+        (one nominal feed). The ``constant`` law runs one feed and declines such paths; the
+        ``programmed`` baseline runs this.
     """
 
     s: np.ndarray
@@ -62,6 +67,7 @@ class ScheduleProblem:
     segment_start: np.ndarray | None = None
     segment_kind: tuple[str, ...] = ()
     key_point_spacing: float = 0.0
+    programmed_feed: np.ndarray | None = None
 
     @property
     def length(self) -> float:

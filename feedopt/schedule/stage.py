@@ -56,6 +56,16 @@ def check_workload(n_samples: int, n_angles: int, axial_slices: int, teeth: int)
             "maximum), fewer slices (20) or a larger path.spacing_mm")
 
 
+def programmed_feed(moves, s: np.ndarray, feed) -> tuple[np.ndarray, np.ndarray]:
+    """A program's own feed at arc lengths ``s`` [m/s] and which samples are rapids: the F
+    of each sample's move; on rapids ``feed.rapid_mm_s`` or ``inf`` (then the robot's joint
+    limits bound them)."""
+    move = moves.index_at(s)
+    rapid = moves.category[move] == "rapid"
+    cap = np.inf if feed.rapid_mm_s is None else feed.rapid_mm_s * MM
+    return np.where(rapid, cap, moves.feed[move]), rapid
+
+
 def schedule_problem(scenario, process, robot, along, placement, samples,
                      path) -> ScheduleInputs:
     """Build the deflection model, v_max(s) and the schedule problem of ``scenario``.
@@ -82,7 +92,13 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         axial_slices=sched.axial_slices,
     )
     limit = defl.limit_mm * MM
-    max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
+    programmed = None
+    if path.moves is None:
+        max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
+    else:  # a program: its F per move (feed.max_mm_s may replace it on feed moves)
+        programmed, rapid = programmed_feed(path.moves, samples.s, feed)
+        max_feed = programmed if feed.max_mm_s is None else np.where(
+            rapid, programmed, feed.max_mm_s * MM)
     qd_max = robot.joint_velocity_max * limits.joint_velocity_scale
     qdd_max = robot.joint_acceleration_max * limits.joint_acceleration_scale
     dq_ds = along.dq_ds  # q'(s) at the samples, from the robot stage
@@ -107,6 +123,8 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         segment_start=path.segment_start,
         segment_kind=path.segment_kind,
         key_point_spacing=sched.key_point_spacing_mm * MM,
+        programmed_feed=(None if programmed is None else np.minimum(
+            programmed, bound.parts.get("joint_velocity", np.inf))),
     )
     # Once, before any law, naming the scenario's fields (every law repeats it for itself).
     check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),

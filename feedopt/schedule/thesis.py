@@ -306,10 +306,11 @@ def _place_ramps(problem: ScheduleProblem, stretches: list[_Stretch], ramp_room:
         v_fit = _fit_ramp(max(v, v_other), room, problem)
         if v_fit < max(v, v_other):
             if v_fit < v_other:
-                raise InputError(
+                raise LawNotApplicable(
                     f"thesis law: no room for a ramp from {v_other / MM:.4g} mm/s on the "
-                    f"segment at s = {st.a / MM:.3f}-{st.b / MM:.3f} mm"
-                )
+                    f"segment at s = {st.a / MM:.3f}-{st.b / MM:.3f} mm (its quintic ramps "
+                    "need segments long enough for one feed change each); convex and jerk "
+                    "plan this path")
             fits.append(RampFit(st.a / MM, v / MM, v_fit / MM))
             st.feeds[j] = v_fit
             if not st.key:

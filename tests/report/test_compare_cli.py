@@ -21,7 +21,7 @@ def test_compare_two_runs(tmp_path, capsys):
     b = _run_dir(tmp_path, "triangle_slot_far", scale=1.5)
     assert main(["compare", str(a), str(b / "summary.json")]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith("| run ") and "T/T(constant)" in out[0]
+    assert out[0].startswith("| run ") and "T/T(baseline)" in out[0]
     rows = [ln for ln in out[2:]]
     assert len(rows) == 6
     assert rows[0].startswith("| triangle_slot ") and rows[3].startswith("| triangle_slot_far")

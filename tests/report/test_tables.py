@@ -25,7 +25,7 @@ def test_single_run_table_values():
     assert list(rows) == ["constant", "thesis", "topp"]
     th = rows["thesis"]
     assert th["T [s]"] == "125" and th["T* [s]"] == "110"
-    assert th["T/T*"] == f"{125 / 110:.3f}" and th["T/T(constant)"] == "1.250"
+    assert th["T/T*"] == f"{125 / 110:.3f}" and th["T/T(baseline)"] == "1.250"
     assert th["defl./limit"] == f"{0.29 / 0.29:.3f}"
     assert rows["constant"]["defl./limit"] == f"{0.41 / 0.29:.3f}"
     assert rows["constant"]["T* [s]"] == "-" and rows["constant"]["T/T*"] == "-"

@@ -21,9 +21,10 @@ quiet = lambda _m: None  # noqa: E731
 
 def test_builtin_laws_and_their_promises() -> None:
     assert list(LAWS)[:5] == ["constant", "thesis", "topp", "convex", "jerk"]
-    assert [n for n, s in LAWS.items() if s.baseline] == ["constant"]
+    assert [n for n, s in LAWS.items() if s.baseline] == ["constant", "programmed"]
     assert LAWS["topp"].continuity == 1
-    assert all(LAWS[n].continuity == 2 for n in ("constant", "thesis", "convex", "jerk"))
+    assert all(LAWS[n].continuity == 2
+               for n in ("constant", "thesis", "convex", "jerk", "programmed"))
     assert {n for n, s in LAWS.items() if s.native_program} == {"constant", "thesis"}
     assert planning_order(["jerk", "convex", "topp"])[0] == "topp"
     for spec in LAWS.values():

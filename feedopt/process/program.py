@@ -1,0 +1,83 @@
+"""What a G-code program says about the process: spindle speed, tool, nominal feed per move.
+
+A program's S word is the spindle speed and its F words the nominal feed of every move
+(:mod:`feedopt.geometry.program_path` keeps them per move). :func:`apply_program` fills the
+scenario's ``cut.spindle_rpm`` and ``feed.nominal_mm_s`` from them, so every later stage reads
+one set of settings, and refuses a program that needs what the force model does not have
+(several spindle speeds or tools while cutting, a tool the scenario does not describe).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.units import MM
+
+
+def _cutting(moves) -> np.ndarray:
+    return moves.category == "cut"
+
+
+def apply_program(scenario, moves, source: str):
+    """The scenario with ``cut.spindle_rpm`` and ``feed.nominal_mm_s`` from the program.
+
+    ``moves`` is the path's :class:`~feedopt.geometry.program_path.MoveTable`. The nominal
+    feed recorded is the programmed cutting feed that covers the longest stretch of the path
+    (summary and report; the laws get the feed of every move). Returns ``(scenario,
+    warnings)``.
+    """
+    cut = _cutting(moves)
+    rpm = moves.spindle_rpm[cut]
+    known = rpm[np.isfinite(rpm)]
+    speeds = np.unique(known)
+    if speeds.size > 1:
+        first = int(np.flatnonzero(cut & np.isfinite(moves.spindle_rpm)
+                                   & (moves.spindle_rpm != speeds[0]))[0])
+        raise InputError(
+            f"{source} {moves.label(first)}: the program cuts at {speeds.size} spindle speeds "
+            f"({', '.join(f'S{v:g}' for v in speeds)}); feedopt plans one speed per program "
+            "(one set of cutting coefficients): split the program at the speed change")
+    given = scenario.cut.spindle_rpm
+    if speeds.size and known.size < rpm.size:
+        first = int(np.flatnonzero(cut & ~np.isfinite(moves.spindle_rpm))[0])
+        raise InputError(f"{source} {moves.label(first)}: cutting before any S word; give "
+                         "the spindle speed (S) before the first cut")
+    if speeds.size and given is not None and not np.isclose(given, speeds[0], rtol=1e-9):
+        raise InputError(
+            f"cut.spindle_rpm = {given:g} disagrees with the program's S{speeds[0]:g}: the "
+            "program sets the spindle speed; remove cut.spindle_rpm or fix the program")
+    if not speeds.size and given is None:
+        raise InputError(f"{source}: the program has no S word; give cut.spindle_rpm")
+    rpm_used = float(speeds[0]) if speeds.size else float(given)
+    _check_tools(scenario, moves, source)
+    feed = moves.feed[cut]
+    length = np.diff(np.append(moves.s_start, np.inf))[cut]
+    values, inverse = np.unique(feed, return_inverse=True)
+    share = np.bincount(inverse.ravel(), weights=np.where(np.isfinite(length), length, 0.0))
+    nominal = float(values[int(np.argmax(share))]) / MM
+    updated = scenario.model_copy(update={
+        "cut": scenario.cut.model_copy(update={"spindle_rpm": rpm_used}),
+        "feed": scenario.feed.model_copy(update={"nominal_mm_s": nominal}),
+    })
+    warnings = []
+    if values.size > 1:
+        warnings.append(
+            f"the program cuts at {values.size} feeds ({', '.join(f'{v / MM:.4g}' for v in values)}"
+            f" mm/s); each move's F is its nominal feed, {nominal:.4g} mm/s (the longest "
+            "stretch) is reported as the nominal")
+    return updated, warnings
+
+
+def _check_tools(scenario, moves, source: str) -> None:
+    tools = np.unique(moves.tool[_cutting(moves) & (moves.tool >= 0)])
+    want = scenario.path.tool_number
+    if tools.size > 1:
+        raise InputError(
+            f"{source}: the program cuts with tools {', '.join(f'T{t}' for t in tools)}; the "
+            f"scenario describes one tool ({scenario.tool}): split the program per tool")
+    if want is not None and tools.size and tools[0] != want:
+        first = int(np.flatnonzero(moves.tool == tools[0])[0])
+        raise InputError(
+            f"{source} {moves.label(first)}: the program cuts with T{tools[0]}, but "
+            f"path.tool_number is {want} (the tool {scenario.tool} describes)")
