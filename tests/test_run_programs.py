@@ -72,5 +72,6 @@ def test_a_spindle_speed_that_disagrees_with_the_program_is_refused(quick_scenar
 
 def test_a_tool_the_scenario_does_not_describe_is_refused(quick_scenario):
     bad = quick_scenario("profile", path__tool_number=2)
-    with pytest.raises(InputError, match=r"cuts with T1, but path.tool_number is 2"):
+    with pytest.raises(InputError, match=r"line \d+: the program cuts with T1, but "
+                                         r"path.tool_number is 2"):
         run_scenario(bad, bad.parent / "out", progress=quiet)

@@ -70,11 +70,30 @@ def program_options(section: Any) -> ProgramPathOptions:
         stock_top=section.stock_top_mm * MM)
 
 
+def check_tools(program, tool_number: int | None) -> None:
+    """InputError when the program cuts with several tools, or with another one than
+    ``path.tool_number`` (the scenario describes one tool)."""
+    cutting = [m for m in program.moves if m.category.value == "cut" and m.tool is not None]
+    tools = list(dict.fromkeys(m.tool for m in cutting))
+    if len(tools) > 1:
+        second = next(m for m in cutting if m.tool == tools[1])
+        raise InputError(
+            f"{program.source} line {second.line}: the program cuts with tools "
+            f"{', '.join(f'T{t}' for t in tools)}; the scenario describes one tool (its tool "
+            "file): split the program per tool")
+    if tool_number is not None and tools and tools[0] != tool_number:
+        first = next(m for m in cutting if m.tool == tools[0])
+        raise InputError(
+            f"{program.source} line {first.line}: the program cuts with T{tools[0]}, but "
+            f"path.tool_number is {tool_number} (the tool the scenario's tool file describes)")
+
+
 def program_from_section(section: Any, base_dir: FilePath,
                          resolve: Resolver = resolve_file) -> ProgramPath:
     """The smoothed path of the section's G-code program, with its provenance and report."""
     file = resolve(base_dir, section.file, "path.file (G-code program)")
     program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm)
+    check_tools(program, section.tool_number)
     result = program_path(program, program_options(section))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
     result.path.notes = notes

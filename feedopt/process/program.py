@@ -4,7 +4,8 @@ A program's S word is the spindle speed and its F words the nominal feed of ever
 (:mod:`feedopt.geometry.program_path` keeps them per move). :func:`apply_program` fills the
 scenario's ``cut.spindle_rpm`` and ``feed.nominal_mm_s`` from them, so every later stage reads
 one set of settings, and refuses a program that needs what the force model does not have
-(several spindle speeds or tools while cutting, a tool the scenario does not describe).
+(several spindle speeds while cutting; the tools are checked when the program is read,
+:func:`feedopt.geometry.stage.check_tools`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,6 @@ def apply_program(scenario, moves, source: str):
     if not speeds.size and given is None:
         raise InputError(f"{source}: the program has no S word; give cut.spindle_rpm")
     rpm_used = float(speeds[0]) if speeds.size else float(given)
-    _check_tools(scenario, moves, source)
     feed = moves.feed[cut]
     length = np.diff(np.append(moves.s_start, np.inf))[cut]
     values, inverse = np.unique(feed, return_inverse=True)
@@ -67,17 +67,3 @@ def apply_program(scenario, moves, source: str):
             f" mm/s); each move's F is its nominal feed, {nominal:.4g} mm/s (the longest "
             "stretch) is reported as the nominal")
     return updated, warnings
-
-
-def _check_tools(scenario, moves, source: str) -> None:
-    tools = np.unique(moves.tool[_cutting(moves) & (moves.tool >= 0)])
-    want = scenario.path.tool_number
-    if tools.size > 1:
-        raise InputError(
-            f"{source}: the program cuts with tools {', '.join(f'T{t}' for t in tools)}; the "
-            f"scenario describes one tool ({scenario.tool}): split the program per tool")
-    if want is not None and tools.size and tools[0] != want:
-        first = int(np.flatnonzero(moves.tool == tools[0])[0])
-        raise InputError(
-            f"{source} {moves.label(first)}: the program cuts with T{tools[0]}, but "
-            f"path.tool_number is {want} (the tool {scenario.tool} describes)")

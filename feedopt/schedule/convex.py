@@ -181,6 +181,22 @@ class ConvexStats(LawStats):
     violations: Overshoot = outcome(Overshoot.NONE)
 
 
+def accel_reachable(s: np.ndarray, v: np.ndarray, accel: float, v_start: float,
+                    v_end: float) -> np.ndarray:
+    """The largest feed [m/s] at each sample that a motion from ``v_start`` to ``v_end`` under
+    ``v`` can have with |sddot| <= ``accel`` (forward and backward pass, vectorised:
+    v(s)^2 <= min over s' <= s of (v(s')^2 + 2 a (s - s')), and the same backwards)."""
+    if not np.isfinite(accel):
+        return np.asarray(v, dtype=float)
+    b = np.square(np.asarray(v, dtype=float))
+    b[0] = min(b[0], v_start * v_start)
+    b[-1] = min(b[-1], v_end * v_end)
+    two_a = 2.0 * accel
+    fwd = np.minimum.accumulate(b - two_a * s) + two_a * s
+    back = np.minimum.accumulate((b + two_a * s)[::-1])[::-1] - two_a * s
+    return np.sqrt(np.maximum(np.minimum(fwd, back), 0.0))
+
+
 def adaptive_grid(
     problem: ScheduleProblem, v_sample: np.ndarray, max_gridpoints: int,
     rest_gridpoints: int = 61,
@@ -198,9 +214,11 @@ def adaptive_grid(
     """
     n = problem.n
     s = problem.s
-    v_top = float(np.max(v_sample))
     a_lim = problem.accel_max if np.isfinite(problem.accel_max) else np.inf
     j_lim = problem.jerk_max
+    # the fastest feed the tool can reach (not a cap it never gets near, such as a rapid
+    # limit on a short rapid): it sizes the braking zones below
+    v_top = float(np.max(accel_reachable(s, v_sample, a_lim, problem.v_start, problem.v_end)))
     zone = 1.5 * v_top * (v_top / a_lim + 2.0 * np.sqrt(v_top / j_lim))
     zone = min(zone, 0.25 * s[-1])
     if n <= max_gridpoints:

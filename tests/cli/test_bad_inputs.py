@@ -40,6 +40,22 @@ FORCES = ["forces", "--tool", str(TOOL), "--coeffs", str(COEFFS), "--rpm", "2000
           "--feed-mm-s", "4.23", "--axial-depth-mm", "2.54", "--step-deg", "10"]
 CALIBRATE = ["calibrate", str(TABLE_3_2), "--teeth", "2", "--axial-depth-mm", "1.27"]
 RUN = ["run", "scenario/quick.yaml"]
+#: G-code programs with one flaw each (issue 11): the head of a valid program, then the flaw
+NC_HEAD = "%\nO1\nG21 G17 G90 G94\nT1 M6\nS2500 M3\nG0 X0 Y0 Z5.\nG1 Z0.5 F300.\n"
+BAD_PROGRAMS = {
+    "unknown_word": NC_HEAD + "G1 X10. Y0 Z-1. A5. F200.\nM30\n",
+    "radius_mismatch": NC_HEAD + "G1 X10. Z-1. F200.\nG2 X30.05 Y0 I10. J0\nM30\n",
+    "circle_without_centre": NC_HEAD + "G1 X10. Z-1. F200.\nG2 X10. Y0 R5.\nM30\n",
+    "zero_radius_arc": NC_HEAD + "G1 X10. Z-1. F200.\nG2 X20. Y0 I0 J0\nM30\n",
+    "no_feed": "G21 G90\nS2500 M3\nG0 X0 Y0 Z5.\nG1 X10. Z-1.\nM30\n",
+    "feed_zero": NC_HEAD + "G1 X10. Z-1. F0\nM30\n",
+    "units_switch": NC_HEAD + "G1 X10. Z-1. F200.\nG20\nG1 X1.\nM30\n",
+    "no_cut": NC_HEAD + "G0 Z5.\nM30\n",
+    "plunge_into_stock": NC_HEAD + "G1 Z-2. F100.\nG1 X10.\nM30\n",
+    "reversal": NC_HEAD + "G1 X10. Z-1. F200.\nG1 X30.\nG1 X20.\nM30\n",
+    "second_tool": NC_HEAD + "G1 X10. Z-1. F200.\nG0 Z5.\nT2 M6\nG0 X0 Y0 Z5.\n"
+                   "G1 X10. Z-1. F200.\nM30\n",
+}
 
 
 @dataclass(frozen=True)
@@ -133,6 +149,29 @@ CASES = [
          "force evaluations, more than the 1e+11"),
     case("run-scenario-garbage", ["run", "garbage.bin"],
          "scenario file garbage.bin is not UTF-8 text"),
+    # G-code programs (issue 11): the line and the word or what is wrong
+    case("nc-unknown-word", ["path", "unknown_word.nc"], "line 8: A5.: rotary and extra axes"),
+    case("nc-radius-mismatch", ["path", "radius_mismatch.nc"],
+         "line 9: G2: start and end are not on one circle"),
+    case("nc-circle-without-centre", ["path", "circle_without_centre.nc"],
+         "line 9: G2 R5.: start and end are the same point"),
+    case("nc-zero-radius-arc", ["path", "zero_radius_arc.nc"],
+         "line 9: G2: the centre is at the start point (radius 0)"),
+    case("nc-no-feed", ["path", "no_feed.nc"], "line 4: feed move without a feed rate"),
+    case("nc-feed-zero", ["path", "feed_zero.nc"], "line 8: F0: feed must be > 0"),
+    case("nc-units-switch", ["path", "units_switch.nc"],
+         "line 9: G20: switching units after the first move"),
+    case("nc-no-cut", ["path", "no_cut.nc", "--out", "p.csv"], "the program has no cutting move"),
+    case("nc-plunge", ["path", "plunge_into_stock.nc", "--out", "p.csv"],
+         "line 8: 'G1 Z-2. F100.' plunges straight down to Z-2 mm, below the stock top"),
+    case("nc-reversal", ["path", "reversal.nc"],
+         "line 10: the move reverses the direction of line 9"),
+    case("nc-garbage", ["path", "garbage.nc"], "G-code program garbage.nc is not UTF-8 text"),
+    case("run-nc-second-tool", ["run", "scenario/program_t2.yaml"],
+         "second_tool.nc line 12: the program cuts with tools T1, T2; the scenario describes "
+         "one tool"),
+    case("run-nc-nominal-feed", ["run", "scenario/program_nominal.yaml"],
+         "the program's F words are the nominal feed"),
 ]
 
 
@@ -167,6 +206,18 @@ def _fixture_files(work: Path) -> None:
             bad["schedule"]["axial_slices"] = 500
             bad["path"]["spacing_mm"] = 0.01
         (work / "scenario" / f"{name}.yaml").write_text(yaml.safe_dump(bad))
+    for name, text in BAD_PROGRAMS.items():
+        (work / f"{name}.nc").write_text(text)
+    (work / "garbage.nc").write_bytes(GARBAGE)
+    prog = yaml.safe_load((SCEN / "profile.yaml").read_text())
+    prog["robot"]["directory"] = str(ROBOT)
+    prog["tool"] = str(SCEN / prog["tool"])
+    prog["material"] = str(SCEN / prog["material"])
+    prog["path"]["file"] = str(work / "second_tool.nc")
+    (work / "scenario" / "program_t2.yaml").write_text(yaml.safe_dump(prog))
+    prog["path"]["file"] = str(SCEN / "gcode" / "profile.nc")
+    prog["feed"]["nominal_mm_s"] = 4.0
+    (work / "scenario" / "program_nominal.yaml").write_text(yaml.safe_dump(prog))
 
 
 def _listing(folder: Path) -> list[str]:
