@@ -221,6 +221,8 @@ def prepare(
         progress(f"warning: {w}")
     share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()
                       if v > 0)
+    if path.moves is not None:  # where a program's bound is lowest, by its line
+        share += f"; lowest at {path.moves.label(path.moves.lowest_cut(samples.s, v_max)[1])}"
     progress(f"[4/5] bounds: v_max {v_max.min() / MM:.3f}-{v_max.max() / MM:.3f} "
              f"mm/s, T* = {schedule.problem.lower_bound_time():.2f} s; active: {share} "
              f"({times['bounds']:.2f} s)")

@@ -152,6 +152,9 @@ class Path:
         self.moves = moves
         #: what building the path recorded for the user (program reader, smoothing)
         self.notes: tuple[str, ...] = ()
+        #: per programmed junction, what it got and its deviation from the program (a
+        #: :class:`~feedopt.geometry.program_path.JunctionReport`), for program paths
+        self.junctions = None
         self._start = np.array([g.s_start for g in segs], dtype=float)
         self._len = np.array([g.length for g in segs], dtype=float)
         self._offset = np.array([g.offset for g in segs], dtype=float)

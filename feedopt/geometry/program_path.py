@@ -123,6 +123,14 @@ class MoveTable:
         idx = np.searchsorted(self.s_start, np.asarray(s, dtype=float), side="right") - 1
         return np.clip(idx, 0, len(self) - 1)
 
+    def lowest_cut(self, s: np.ndarray, values: np.ndarray) -> tuple[int, int]:
+        """(sample, move) where ``values`` (one per arc length ``s``) is lowest on cut moves
+        (on all moves if nothing cuts): "the feed bound is lowest at line 88"."""
+        move = self.index_at(s)
+        cut = self.category[move] == "cut"
+        k = int(np.argmin(np.where(cut, values, np.inf) if cut.any() else values))
+        return k, int(move[k])
+
     def label(self, i: int) -> str:
         """``"line 88 (N880)"`` for move ``i``."""
         n = int(self.n_number[i])

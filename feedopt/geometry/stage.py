@@ -97,6 +97,7 @@ def program_from_section(section: Any, base_dir: FilePath,
     result = program_path(program, program_options(section))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
     result.path.notes = notes
+    result.path.junctions = result.junctions
     return result
 
 

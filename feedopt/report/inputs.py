@@ -150,6 +150,10 @@ def _rpy(sc: Mapping) -> str | None:
 def _max_feed(sc: Mapping) -> str | None:
     if sc.get("max_feed_mm_s") is None:
         return None
+    if isinstance(sc.get("program"), Mapping):
+        if sc.get("max_feed_is_default"):
+            return "the program's F of each move (rapids: the rapid limit)"
+        return f"{_g(sc['max_feed_mm_s'])} mm/s on feed moves (replacing the program's F)"
     default = " (default: the nominal feed)" if sc.get("max_feed_is_default") else ""
     return f"{_g(sc['max_feed_mm_s'])} mm/s{default}"
 
@@ -193,6 +197,35 @@ def _path(sc: Mapping) -> str | None:
     return out
 
 
+def _nominal(sc: Mapping) -> str | None:
+    """The nominal feed; for a program, its F words (the one reported covers most of it)."""
+    v = sc.get("nominal_feed_mm_s")
+    if v is None:
+        return None
+    if isinstance(sc.get("program"), Mapping):
+        return f"the program's F per move ({_g(v)} mm/s over the longest stretch)"
+    return f"{_g(v)} mm/s"
+
+
+def _program(sc: Mapping) -> str | None:
+    """A G-code program: moves, where the bound is lowest and the largest deviation."""
+    p = sc.get("program")
+    if not isinstance(p, Mapping):
+        return None
+    cats = p.get("moves_by_category") or {}
+    out = f"{p.get('file')}: {p.get('moves')} moves (" + ", ".join(
+        f"{v} {k}" for k, v in cats.items() if v) + ")"
+    low = p.get("lowest_bound") or {}
+    if low:
+        out += (f"; feed bound lowest at {low.get('label')} ({_g(low.get('v_max_mm_s'))} "
+                "mm/s)")
+    dev = p.get("largest_deviation")
+    if dev:
+        out += (f"; largest deviation from the program {_g(dev.get('deviation_mm'))} mm at "
+                f"{dev.get('junction')} (tolerance {_g(dev.get('tolerance_mm'))} mm)")
+    return out
+
+
 #: (label, formatter) of every row of the inputs table, in order.
 ROWS: tuple[tuple[str, Callable[[Mapping], str | None]], ...] = (
     ("robot", _robot),
@@ -209,13 +242,14 @@ ROWS: tuple[tuple[str, Callable[[Mapping], str | None]], ...] = (
     ("milling", _cut("milling")),
     ("workpiece position", _position),
     ("workpiece orientation", _rpy),
-    ("nominal feed", _mm("nominal_feed_mm_s", "mm/s")),
+    ("nominal feed", _nominal),
     ("max feed", _max_feed),
     ("deflection limit", _limit),
     ("tangential acceleration limit", _mm("tangential_acceleration_mm_s2", "mm/s^2")),
     ("tangential jerk limit", _mm("tangential_jerk_mm_s3", "mm/s^3")),
     ("samples", _samples),
     ("path length", _path),
+    ("G-code program", _program),
 )
 
 

@@ -40,6 +40,35 @@ def _material(prepared: Prepared) -> dict:
     }
 
 
+def program_summary(prepared: Prepared) -> dict | None:
+    """For a G-code program path: the file, its moves, where the feed bound is lowest (by
+    program line) and how far the smoothed path deviates from the program; None otherwise."""
+    path = prepared.path
+    moves = path.moves
+    if moves is None:
+        return None
+    v = prepared.bound.v_max
+    s = prepared.samples.s
+    low, move = moves.lowest_cut(s, v)
+    junctions = path.junctions
+    worst = None
+    if junctions is not None and len(junctions):
+        k = int(np.argmax(junctions.deviation / junctions.tolerance))
+        worst = {"junction": junctions.labels[k], "deviation_mm": junctions.deviation[k] / MM,
+                 "tolerance_mm": junctions.tolerance[k] / MM}
+    return {
+        "file": prepared.scenario.path.file,
+        "moves": len(moves),
+        "moves_by_category": {c: int(np.sum(moves.category == c))
+                              for c in ("cut", "plunge", "retract", "rapid")},
+        "lowest_bound": {"line": int(moves.line[move]),
+                         "n": None if moves.n_number[move] < 0 else int(moves.n_number[move]),
+                         "label": moves.label(move), "s_mm": s[low] / MM,
+                         "v_max_mm_s": v[low] / MM},
+        "largest_deviation": worst,
+    }
+
+
 def scenario_summary(prepared: Prepared) -> dict:
     """The resolved inputs, in user units, for summary.json (design.md).
 
@@ -92,6 +121,7 @@ def scenario_summary(prepared: Prepared) -> dict:
         "joint_acceleration_scale": sc.limits.joint_acceleration_scale,
         "path": {"generator": sc.path.generator, "blend": sc.path.blend,
                  "blend_size_mm": sc.path.blend_size_mm, "segments": len(prepared.path.segments)},
+        "program": program_summary(prepared),
         "path_length_mm": problem.length / MM,
         "samples": n,
         "sample_spacing_mm": problem.length / MM / max(n - 1, 1),
