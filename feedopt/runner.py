@@ -27,6 +27,7 @@ from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
 from feedopt.process.program import apply_program
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
+from feedopt.report.data import engagement_series
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
@@ -153,20 +154,31 @@ def _check_output_size(lower_bound_time: float, cycle: float) -> None:
             "the job, or check the feed (a feed far below the nominal makes long jobs)")
 
 
-def prepare(
+@dataclass
+class Front:
+    """The geometry, cell and process stages of a run (what ``feedopt engagement`` needs)."""
+
+    scenario: Scenario  # with a program's F and S filled in
+    path: ToolPath
+    samples: PathPoints
+    placement: Placement
+    process: ProcessAlongPath
+    warnings: list[str]
+    times: dict[str, float]
+
+
+def prepare_front(
     scenario: Scenario,
     base_dir: Path,
     progress: Progress = _stderr_progress,
     spacing_mm: float | None = None,
-) -> Prepared:
-    """Run the geometry, process, robot and bound stages of ``scenario``."""
-    from feedopt.export.job import early_blockers
-
+) -> Front:
+    """Run the geometry, cell and process stages of ``scenario``."""
     times: dict[str, float] = {}
     spacing = (spacing_mm or scenario.path.spacing_mm) * MM
 
     t0 = time.perf_counter()
-    path = path_from_section(scenario.path, base_dir)
+    path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     program_notes: list[str] = []
     if path.moves is not None:
         scenario, program_notes = apply_program(scenario, path.moves, scenario.path.file)
@@ -191,8 +203,28 @@ def prepare(
                                  samples, _segment_names(path), moves=path.moves)
     warnings += process.warnings
     times["process"] = time.perf_counter() - t0
-    progress(f"[2/5] process: tool {process.tool.name}, {scenario.cut.type} cut at "
+    how = ("engagement from the stock" if process.material is not None
+           else f"{scenario.cut.type} cut")
+    progress(f"[2/5] process: tool {process.tool.name}, {how} at "
              f"{scenario.cut.spindle_rpm:g} rpm ({times['process']:.2f} s)")
+
+    return Front(scenario=scenario, path=path, samples=samples, placement=placement,
+                 process=process, warnings=warnings, times=times)
+
+
+def prepare(
+    scenario: Scenario,
+    base_dir: Path,
+    progress: Progress = _stderr_progress,
+    spacing_mm: float | None = None,
+) -> Prepared:
+    """Run the geometry, process, robot and bound stages of ``scenario``."""
+    from feedopt.export.job import early_blockers
+
+    front = prepare_front(scenario, base_dir, progress, spacing_mm)
+    scenario, path, samples = front.scenario, front.path, front.samples
+    placement, process, warnings, times = (front.placement, front.process, front.warnings,
+                                           front.times)
 
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
@@ -341,8 +373,11 @@ def write_outputs(
             series.append(law_series(law, problem.s, ver, samples))
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if report:
+        material = prepared.process.material
+        engagement = (None if material is None
+                      else engagement_series(prepared.samples, material))
         write_run_report(out_dir, sc.name, summary, prepared.positions, prepared.samples.segment,
-                         problem, series, sc.deflection.limit_mm)
+                         problem, series, sc.deflection.limit_mm, engagement)
     return summary
 
 
@@ -392,7 +427,7 @@ def validate_scenario(scenario_path: str | Path) -> str:
     load_tool(resolve(base_dir, scenario.tool, "tool file"))
     table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
-    path = path_from_section(scenario.path, base_dir)
+    path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
     table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)

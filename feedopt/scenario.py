@@ -164,9 +164,11 @@ class DepthProfile(_Strict):
 class CutSection(_Strict):
     """Cutting conditions."""
 
-    type: Literal["slot", "peripheral"] = Field(description="slot (full immersion) or "
-                                                "peripheral (radial depth)")
-    axial_depth_mm: PositiveFloat = Field(description="axial depth of cut a (mm)")
+    type: Literal["slot", "peripheral"] | None = Field(None, description="slot (full "
+                                                       "immersion) or peripheral (radial "
+                                                       "depth); required without a stock")
+    axial_depth_mm: PositiveFloat | None = Field(None, description="axial depth of cut a (mm); "
+                                                 "required without a stock")
     radial_depth_mm: PositiveFloat | None = Field(None, description="constant radial depth "
                                                   "a_e for peripheral cuts (mm)")
     radial_depth_profile: DepthProfile | None = Field(None, description="radial depth vs arc "
@@ -188,6 +190,30 @@ class CutSection(_Strict):
                              "radial_depth_profile")
         if self.type == "slot" and (self.radial_depth_mm or self.radial_depth_profile):
             raise ValueError("a slot is full immersion: remove radial_depth_mm/_profile")
+        return self
+
+
+class StockSection(_Strict):
+    """The workpiece as material (a Z-map, feedopt.process.stock): the engagement of every
+    sample comes from the material the cutter meets, replacing cut.type / depths."""
+
+    box_mm: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] | None = Field(
+        None, description="box of stock in W: [x0, y0, z0, x1, y1, z1] (mm)")
+    mesh: str | None = Field(None, description="closed triangle mesh of the stock (STL, in W, "
+                             "mm); tops per cell by vertical rays")
+    cell_mm: Annotated[float, Field(ge=0.02, le=5.0, allow_inf_nan=False)] = Field(
+        0.25, description="Z-map cell size (mm): entry/exit angles within about "
+        "cell / sqrt(2) / (R sin phi) rad (1.1 deg at 0.25 mm, R 9.525 mm)")
+
+    @model_validator(mode="after")
+    def _one_shape(self) -> StockSection:
+        if (self.box_mm is None) == (self.mesh is None):
+            raise ValueError("give exactly one of box_mm and mesh")
+        if self.box_mm is not None:
+            x0, y0, z0, x1, y1, z1 = self.box_mm
+            if not (x1 > x0 and y1 > y0 and z1 > z0):
+                raise ValueError(f"box_mm must be [x0, y0, z0, x1, y1, z1] with x1 > x0, y1 > "
+                                 f"y0, z1 > z0, got {self.box_mm}")
         return self
 
 
@@ -309,6 +335,9 @@ class Scenario(_Strict):
     tool: str = Field(description="tool YAML file (diameter, teeth, helix, flute length)")
     material: str = Field(description="cutting-coefficient YAML (feedopt calibrate --out)")
     cut: CutSection
+    stock: StockSection | None = Field(None, description="the workpiece as material: the "
+                                       "engagement comes from it (replaces cut.type and the "
+                                       "depths)")
     feed: FeedSection
     deflection: DeflectionSection
     limits: LimitsSection = LimitsSection()
@@ -339,6 +368,14 @@ class Scenario(_Strict):
             raise ValueError("cut.spindle_rpm: required (the spindle speed, rev/min)")
         if self.feed.rapid_mm_s is not None and not program:
             raise ValueError("feed.rapid_mm_s: only a G-code program has rapids; remove it")
+        if self.stock is None and (self.cut.type is None or self.cut.axial_depth_mm is None):
+            raise ValueError("cut.type and cut.axial_depth_mm: required without a stock (or "
+                             "give stock: {box_mm: [...]} for the engagement from the material)")
+        if self.stock is not None and any(abs(a - b) > 1e-12 for a, b in zip(
+                self.workpiece.tool_axis, (0.0, 0.0, 1.0), strict=True)):
+            raise ValueError("stock: the Z-map stock model is for 3-axis milling with the tool "
+                             "axis along +z of the workpiece frame; workpiece.tool_axis must "
+                             "be [0, 0, 1]")
         return self
 
 
@@ -346,6 +383,12 @@ def scenario_warnings(scenario: Scenario) -> list[str]:
     """What a valid scenario asks for that is probably not what the user meant, and what the
     run will do about it (printed, and kept in summary.json and the report)."""
     out = []
+    cut = scenario.cut
+    if scenario.stock is not None and (cut.type is not None or cut.axial_depth_mm is not None
+                                       or cut.radial_depth_mm is not None
+                                       or cut.radial_depth_profile is not None):
+        out.append("stock and cut.type/depths are both given: the engagement comes from the "
+                   "stock; cut.type, axial and radial depths and cut.milling are not used")
     feed = scenario.feed
     if (feed.max_mm_s is not None and feed.nominal_mm_s is not None
             and feed.max_mm_s < feed.nominal_mm_s):

@@ -60,14 +60,16 @@ def waypoints_from_section(section: Any, base_dir: FilePath,
     return w
 
 
-def program_options(section: Any) -> ProgramPathOptions:
-    """The program-path options of a ``gcode`` path section (mm -> m)."""
+def program_options(section: Any, stock_top: bool = True) -> ProgramPathOptions:
+    """The program-path options of a ``gcode`` path section (mm -> m); ``stock_top`` False:
+    plunges are not checked against ``stock_top_mm`` (a stock model checks them against
+    the material itself)."""
     return ProgramPathOptions(
         tolerance=section.tolerance_mm * MM, air_tolerance=section.air_tolerance_mm * MM,
         blend=section.blend, blend_size=section.blend_size_mm * MM,
         chain_max_move=section.chain_max_move_mm * MM,
         chain_max_turn=math.radians(section.chain_max_turn_deg),
-        stock_top=section.stock_top_mm * MM)
+        stock_top=section.stock_top_mm * MM if stock_top else None)
 
 
 def check_tools(program, tool_number: int | None) -> None:
@@ -89,12 +91,13 @@ def check_tools(program, tool_number: int | None) -> None:
 
 
 def program_from_section(section: Any, base_dir: FilePath,
-                         resolve: Resolver = resolve_file) -> ProgramPath:
+                         resolve: Resolver = resolve_file, stock_top: bool = True
+                         ) -> ProgramPath:
     """The smoothed path of the section's G-code program, with its provenance and report."""
     file = resolve(base_dir, section.file, "path.file (G-code program)")
     program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm)
     check_tools(program, section.tool_number)
-    result = program_path(program, program_options(section))
+    result = program_path(program, program_options(section, stock_top))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
     result.path.notes = notes
     result.path.junctions = result.junctions
@@ -102,7 +105,7 @@ def program_from_section(section: Any, base_dir: FilePath,
 
 
 def path_from_section(section: Any, base_dir: FilePath, *,
-                      resolve: Resolver = resolve_file) -> Path:
+                      resolve: Resolver = resolve_file, stock_top: bool = True) -> Path:
     """The scenario's path (:func:`~feedopt.geometry.path.build_lipb_path` of its waypoints
     with its blend); every geometry error is prefixed with the section, e.g.
     ``path (csv, blend circle 12.7 mm): ...``, and the repeated-waypoint refusal points at
@@ -111,7 +114,7 @@ def path_from_section(section: Any, base_dir: FilePath, *,
     whose ``moves`` say where every programmed move lies and ``notes`` what the reader and
     the smoothing recorded."""
     if section.generator == "gcode":
-        return program_from_section(section, base_dir, resolve).path
+        return program_from_section(section, base_dir, resolve, stock_top).path
     try:
         return build_lipb_path(waypoints_from_section(section, base_dir, resolve),
                                section.blend, section.blend_size_mm * MM,

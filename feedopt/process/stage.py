@@ -27,6 +27,7 @@ from feedopt.process.engagement import (
     radial_depth_profile,
     slot_engagement,
 )
+from feedopt.process.material import MaterialAlongPath, engagement_from_stock
 from feedopt.process.path_radius import check_path_radius
 from feedopt.process.tool import Tool, load_tool
 from feedopt.units import MM
@@ -41,6 +42,7 @@ class ProcessAlongPath:
     coefficients: CuttingCoefficients
     engagement: Engagement
     warnings: tuple[str, ...]
+    material: MaterialAlongPath | None = None  # with a stock: the sweep and the stock
 
 
 def engagement_of(cut, tool: Tool, s: np.ndarray) -> Engagement:
@@ -113,9 +115,16 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     tool = load_tool(resolve(scenario.tool, "tool file"))
     table = load_coefficients(resolve(scenario.material, "material file"))
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
-    engagement = engagement_of(cut, tool, samples.s)
-    if moves is not None:
-        engagement = in_program_air(engagement, moves, samples, scenario.path.stock_top_mm * MM)
+    material = None
+    if scenario.stock is not None:
+        material = engagement_from_stock(scenario.stock, resolve, tool, samples, moves,
+                                         source=str(scenario.path.file))
+        engagement = material.found.engagement
+    else:
+        engagement = engagement_of(cut, tool, samples.s)
+        if moves is not None:
+            engagement = in_program_air(engagement, moves, samples,
+                                        scenario.path.stock_top_mm * MM)
     warnings = check_path_radius(samples.s, samples.curvature, samples.segment, segment_names,
                                  0.5 * tool.diameter, cutting=engagement.exit > engagement.entry,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis),
@@ -124,5 +133,11 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     if feed.max_mm_s is not None:
         feeds.append(("feed.max_mm_s", feed.max_mm_s * MM))
     warnings += feed_range_warnings(table, feeds, cut.spindle_rpm, tool)
+    if material is not None and material.found.beyond_flutes.any():
+        i = int(np.argmax(material.found.beyond_flutes))
+        warnings.append(f"the stock reaches above the flutes of the tool at "
+                        f"{int(material.found.beyond_flutes.sum())} sample(s) (first at s = "
+                        f"{samples.s[i] / MM:.2f} mm): the shank would rub; the axial depth is "
+                        "clipped to the flute length")
     return ProcessAlongPath(tool=tool, table=table, coefficients=coefficients,
-                            engagement=engagement, warnings=tuple(warnings))
+                            engagement=engagement, warnings=tuple(warnings), material=material)

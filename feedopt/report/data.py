@@ -16,7 +16,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.textio import read_user_text
-from feedopt.units import MM_PER_M
+from feedopt.units import MM, MM_PER_M
 
 # Per-law keys of summary.json and their kinds ("num": number or null, "bool": bool or null).
 LAW_KEYS: dict[str, str] = {
@@ -118,6 +118,47 @@ def law_series_from_si(
 
 
 @dataclass(frozen=True)
+class EngagementSeries:
+    """What the stock gave along the path, for the engagement figure (workpiece frame, mm).
+
+    s_mm, radial_mm, axial_mm, entry_deg, exit_deg : (n,) per sample (NaN angles in air)
+    xy_mm : (n, 2) tool tip in the workpiece frame
+    stock_top_mm : (nx, ny) height of the stock after the run (a view, not a copy)
+    extent_mm : (x0, x1, y0, y1) of the stock grid
+    """
+
+    s_mm: np.ndarray
+    xy_mm: np.ndarray
+    radial_mm: np.ndarray
+    axial_mm: np.ndarray
+    entry_deg: np.ndarray
+    exit_deg: np.ndarray
+    stock_top_mm: np.ndarray
+    extent_mm: tuple[float, float, float, float]
+
+
+def engagement_series(samples, material) -> EngagementSeries:
+    """The :class:`EngagementSeries` of a run's samples and its
+    :class:`~feedopt.process.material.MaterialAlongPath`."""
+    found = material.found
+    air = found.in_air
+    after = material.after
+    nx, ny = after.shape
+    x0, y0 = after.origin
+    return EngagementSeries(
+        s_mm=samples.s / MM,
+        xy_mm=samples.position[:, :2] / MM,
+        radial_mm=np.where(air, 0.0, np.nan_to_num(found.lateral[:, 1] - found.lateral[:, 0]))
+        / MM,
+        axial_mm=found.axial_depth / MM,
+        entry_deg=np.where(air, np.nan, np.degrees(found.engagement.entry)),
+        exit_deg=np.where(air, np.nan, np.degrees(found.engagement.exit)),
+        stock_top_mm=after.heights / MM,
+        extent_mm=(x0 / MM, (x0 + nx * after.cell) / MM, y0 / MM, (y0 + ny * after.cell) / MM),
+    )
+
+
+@dataclass(frozen=True)
 class ReportData:
     """Everything :func:`feedopt.report.html.write_report` draws.
 
@@ -142,6 +183,7 @@ class ReportData:
     joint_velocity_limit_deg_s: np.ndarray
     deflection_limit_mm: float
     notes: tuple[str, ...] = field(default=())
+    engagement: EngagementSeries | None = None
 
     def __post_init__(self) -> None:
         xyz = _ro(self.path_xyz_mm, (3,), "path_xyz_mm")

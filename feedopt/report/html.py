@@ -63,8 +63,12 @@ def _notes_lines(data: ReportData) -> list[tuple[str, str]]:
 def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     """Markdown text, HTML text and ``{png file name: bytes}`` of the report (nothing written)."""
     pngs: dict[str, bytes] = {}
+    figures = []
     for spec in FIGURES:
         fig = spec.draw(data)
+        if fig is None:  # a figure that does not apply to this run (no stock, ...)
+            continue
+        figures.append(spec)
         pngs[f"report_{spec.key}.png"] = render_png(fig)
     table_md = comparison_table([data.summary])
     title = f"feedopt report: {data.scenario}"
@@ -83,7 +87,7 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     for law, text in _notes_lines(data):
         md.append(f"- **{law}**: {text}" if law else f"- {text}")
     md += ["", "## Figures", ""]
-    for k, spec in enumerate(FIGURES, start=1):
+    for k, spec in enumerate(figures, start=1):
         md += [f"![{spec.caption}](report_{spec.key}.png)", "",
                f"*Figure {k}: {spec.caption}*", ""]
 
@@ -116,7 +120,7 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     for law, text in _notes_lines(data):
         h.append(f"<li><b>{esc(law)}</b>: {esc(text)}</li>" if law else f"<li>{esc(text)}</li>")
     h += ["</ul>", "<h2>Figures</h2>"]
-    for k, spec in enumerate(FIGURES, start=1):
+    for k, spec in enumerate(figures, start=1):
         b64 = base64.b64encode(pngs[f"report_{spec.key}.png"]).decode("ascii")
         h.append(
             f'<figure id="fig-{spec.key}"><img alt="{esc(spec.caption)}" '

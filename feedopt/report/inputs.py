@@ -99,6 +99,8 @@ def _cut(key: str) -> Callable[[Mapping], str | None]:
         c = sc.get("cut")
         if not isinstance(c, Mapping) or key not in c:
             return None
+        if c.get(key) is None and (key != "radial_depth_mm" or c.get("type") is None):
+            return None  # not stated (the engagement comes from the stock)
         if key == "rpm":
             return f"{_g(c['rpm'])} rpm"
         if key == "axial_depth_mm":

@@ -230,6 +230,47 @@ class FigureSpec:
     draw: object
 
 
+def engagement_figure(eng) -> Figure:
+    """Left: the stock's top view after the run (height, mm) with the path coloured by the
+    radial depth the stock gave (grey where in air); right: entry/exit angles and axial
+    depth along s. ``eng`` is a :class:`~feedopt.report.data.EngagementSeries`."""
+    fig = _new_figure(14, 5)
+    ax, axa = fig.subplots(1, 2, width_ratios=[1.3, 1])
+    x0, x1, y0, y1 = eng.extent_mm
+    im = ax.imshow(eng.stock_top_mm.T, origin="lower", extent=(x0, x1, y0, y1), cmap="Greys",
+                   alpha=0.6, aspect="equal")
+    fig.colorbar(im, ax=ax, label="stock top after the run [mm]", shrink=0.8)
+    air = eng.radial_mm <= 0
+    xy = eng.xy_mm
+    ax.plot(np.where(air, xy[:, 0], np.nan), np.where(air, xy[:, 1], np.nan), color="0.6",
+            lw=0.6, label="air")
+    step = max(1, xy.shape[0] // MAX_CURVE_POINTS)
+    sc = ax.scatter(xy[::step, 0], xy[::step, 1], c=np.where(air, np.nan, eng.radial_mm)[::step],
+                    s=2, cmap="viridis", label="cutting")
+    fig.colorbar(sc, ax=ax, label="radial depth of cut [mm]", shrink=0.8)
+    ax.set_xlabel("x [mm] (workpiece frame)")
+    ax.set_ylabel("y [mm]")
+    ax.set_title("engagement from the stock")
+    ax.legend(loc="best", fontsize=8)
+    _plot(axa, eng.s_mm, eng.entry_deg, lw=1, label="entry angle [deg]")
+    _plot(axa, eng.s_mm, eng.exit_deg, lw=1, label="exit angle [deg]")
+    axd = axa.twinx()
+    _plot(axd, eng.s_mm, eng.axial_mm, color="k", lw=0.8, label="axial depth [mm]")
+    axa.set_xlabel("s [mm]")
+    axa.set_ylabel("angle [deg] (0-180: the leading half)")
+    axd.set_ylabel("axial depth [mm]")
+    axa.set_ylim(-5, 185)
+    axa.legend(loc="upper left", fontsize=8)
+    axd.legend(loc="upper right", fontsize=8)
+    axa.grid(alpha=0.3)
+    return fig
+
+
+def plot_engagement(data: ReportData) -> Figure | None:
+    """The engagement figure of a run with a stock (None without one)."""
+    return None if data.engagement is None else engagement_figure(data.engagement)
+
+
 FIGURES: tuple[FigureSpec, ...] = (
     FigureSpec(
         "path",
@@ -258,5 +299,11 @@ FIGURES: tuple[FigureSpec, ...] = (
         "Joint velocities vs time against the joint velocity limits (dashed); the axes are "
         "zoomed on the data when the limits are far away (see each panel's title).",
         plot_joint_velocity,
+    ),
+    FigureSpec(
+        "engagement",
+        "Engagement from the stock: the stock's top view after the run with the path coloured "
+        "by radial depth, and the entry/exit angles and axial depth along s.",
+        plot_engagement,
     ),
 )

@@ -122,6 +122,7 @@ def scenario_summary(prepared: Prepared) -> dict:
         "path": {"generator": sc.path.generator, "blend": sc.path.blend,
                  "blend_size_mm": sc.path.blend_size_mm, "segments": len(prepared.path.segments)},
         "program": program_summary(prepared),
+        "stock": stock_summary(prepared),
         "path_length_mm": problem.length / MM,
         "samples": n,
         "sample_spacing_mm": problem.length / MM / max(n - 1, 1),
@@ -153,10 +154,49 @@ def _ramp(ramp: Ramp) -> dict:
     }
 
 
+def removal_rates(prepared: Prepared, feed: np.ndarray) -> np.ndarray | None:
+    """Material removal rate [mm^3/s] per sample at the path feed ``feed`` [m/s]:
+    a_e a_p v_f, the radial depth (lateral extent of the material the stock gave) times the
+    axial depth times the feed; None without a stock."""
+    material = prepared.process.material
+    if material is None:
+        return None
+    found = material.found
+    width = np.where(found.in_air, 0.0, np.nan_to_num(found.lateral[:, 1] - found.lateral[:, 0]))
+    return width * found.axial_depth * np.asarray(feed, dtype=float) / MM**3
+
+
+def stock_summary(prepared: Prepared) -> dict | None:
+    """The stock of the run: shape, cells, volumes and how much of the path cuts."""
+    material = prepared.process.material
+    if material is None:
+        return None
+    sec = prepared.scenario.stock
+    found = material.found
+    return {
+        "box_mm": None if sec.box_mm is None else list(sec.box_mm),
+        "mesh": sec.mesh,
+        "cell_mm": sec.cell_mm,
+        "cells": list(material.before.shape),
+        "zmap_mb": material.before.nbytes / 1e6,
+        "volume_before_mm3": material.before.volume() / MM**3,
+        "volume_after_mm3": material.after.volume() / MM**3,
+        "removed_mm3": material.removed_volume / MM**3,
+        "cutting_fraction": float(np.mean(~found.in_air)),
+        "max_axial_depth_mm": float(np.max(found.axial_depth)) / MM,
+    }
+
+
 def law_summary(prepared: Prepared, result: LawResult) -> dict:
     ver, timing = result.verification, result.verification.timing
     traj = result.trajectory
+    mrr = removal_rates(prepared, ver.feed)
+    removal = None if mrr is None else {
+        "mean_mm3_s": prepared.process.material.removed_volume / MM**3 / traj.duration,
+        "max_mm3_s": float(np.max(mrr)),
+    }
     return {
+        "material_removal_rate": removal,
         "cycle_time_s": traj.duration,
         "lower_bound_s": prepared.problem.lower_bound_time(),
         "time_over_lower_bound": traj.duration / prepared.problem.lower_bound_time(),

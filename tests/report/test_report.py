@@ -25,11 +25,14 @@ def test_html_embeds_every_figure_and_nothing_external(written):
     _, (md_path, html_path) = written
     page = html_path.read_text()
     images = re.findall(r'<img [^>]*src="([^"]*)"', page)
-    assert len(images) == len(FIGURES) == 5
+    # every figure but the engagement one, which needs a stock (tests/process/test_material.py)
+    shown = [spec for spec in FIGURES if spec.key != "engagement"]
+    assert len(images) == len(shown) == 5 and len(FIGURES) == 6
+    assert 'id="fig-engagement"' not in page
     for src in images:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC)
-    for k, spec in enumerate(FIGURES, start=1):
+    for k, spec in enumerate(shown, start=1):
         assert f'id="fig-{spec.key}"' in page
         assert f"Figure {k}: " in page
     # self-contained: no scripts, stylesheets, links or remote URLs
@@ -48,7 +51,7 @@ def test_markdown_references_png_files_that_match_the_html(written):
     md = md_path.read_text()
     page = html_path.read_text()
     refs = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    assert refs == [f"report_{spec.key}.png" for spec in FIGURES]
+    assert refs == [f"report_{spec.key}.png" for spec in FIGURES if spec.key != "engagement"]
     for ref in refs:
         payload = (tmp_path / ref).read_bytes()
         assert payload.startswith(PNG_MAGIC)

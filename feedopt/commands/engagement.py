@@ -1,0 +1,102 @@
+"""``feedopt engagement SCENARIO.yaml``: the engagement the stock gives every path sample.
+
+Runs the geometry, cell and process stages (no robot, no planning) of a scenario with a
+``stock:`` section and writes one row per path sample: ``s_mm,x_mm,y_mm,z_mm,line,entry_deg,
+exit_deg,radial_depth_mm,axial_depth_mm`` (workpiece frame; ``line`` is the program line for
+a G-code path, empty otherwise; angles in the force-model frame, Altintas' convention; empty
+angles and zero depths in air). One engaged interval per sample: the hull of the engaged
+angles (two separate contacts, e.g. at an inside corner with a small radial depth, are
+reported as their hull; the force model uses the same). ``--plot`` draws the stock's top view
+with the path coloured by radial depth, and the angles and depths along s.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from feedopt.errors import InputError
+from feedopt.outfile import check_data_and_plot, write_files_atomically
+from feedopt.units import MM, MM_PER_M
+
+HEADER = "s_mm,x_mm,y_mm,z_mm,line,entry_deg,exit_deg,radial_depth_mm,axial_depth_mm"
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "engagement",
+        help="engagement of every path sample from the scenario's stock (CSV, plot)",
+        description="Sweep the scenario's tool along its path through its stock (Z-map) and "
+        "write the engagement per sample: " + HEADER)
+    p.add_argument("scenario", help="scenario YAML file with a stock: section")
+    p.add_argument("--out", metavar="CSV", help="write the samples here")
+    p.add_argument("--plot", metavar="PNG", help="draw the stock and the engagement here")
+    p.add_argument("--spacing", type=float, metavar="MM",
+                   help="sample spacing [mm] (default: the scenario's path.spacing_mm)")
+    p.set_defaults(func=run)
+
+
+def engagement_table(front) -> np.ndarray:
+    """(n, 9) rows of the CSV (NaN for empty cells)."""
+    found = front.process.material.found
+    s = front.samples.s / MM
+    pos = front.samples.position * MM_PER_M
+    moves = front.path.moves
+    line = (moves.line[moves.index_at(front.samples.s)].astype(float) if moves is not None
+            else np.full(s.size, np.nan))
+    air = found.in_air
+    entry = np.where(air, np.nan, np.degrees(found.engagement.entry))
+    exit_ = np.where(air, np.nan, np.degrees(found.engagement.exit))
+    # radial depth: the lateral extent of the material across the feed (force-model y)
+    lo, hi = found.lateral[:, 0], found.lateral[:, 1]
+    radial = np.where(air, 0.0, np.nan_to_num(hi - lo)) / MM
+    return np.column_stack([s, pos, line, entry, exit_, radial, found.axial_depth / MM])
+
+
+def run(args: argparse.Namespace) -> int:
+    from feedopt.runner import prepare_front
+    from feedopt.scenario import load_scenario
+
+    check_data_and_plot(args.out, args.plot, [args.scenario], "engagement.csv",
+                        "engagement.png")
+    if args.spacing is not None and not (np.isfinite(args.spacing) and args.spacing > 0):
+        raise InputError(f"--spacing must be a positive number of mm, got {args.spacing}")
+    scenario, base_dir = load_scenario(args.scenario)
+    if scenario.stock is None:
+        raise InputError(f"{args.scenario}: no stock: section; give stock: {{box_mm: [x0, y0, "
+                         "z0, x1, y1, z1]}} (or mesh: part.stl) for the engagement from the "
+                         "material")
+    front = prepare_front(scenario, base_dir, progress=lambda _m: None, spacing_mm=args.spacing)
+    table = engagement_table(front)
+    material = front.process.material
+    found = material.found
+    print(f"{args.scenario}: {table.shape[0]} samples, {np.mean(~found.in_air):.1%} cutting; "
+          f"stock {material.before.shape[0]} x {material.before.shape[1]} cells of "
+          f"{material.before.cell / MM:g} mm ({material.before.nbytes / 1e6:.2f} MB); removed "
+          f"{material.removed_volume / MM**3:.0f} mm^3")
+    files = []
+    if args.out is not None:
+        def write(tmp, table=table):
+            cells = [np.char.mod("%.9g", table[:, k]) for k in range(table.shape[1])]
+            cells = [np.where(np.isnan(table[:, k]), "", c) for k, c in enumerate(cells)]
+            cells[4] = np.where(np.isnan(table[:, 4]), "",
+                                np.char.mod("%d", np.nan_to_num(table[:, 4]).astype(int)))
+            rows = cells[0]
+            for c in cells[1:]:
+                rows = np.char.add(np.char.add(rows, ","), c)
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(HEADER + "\n" + "\n".join(rows.tolist()) + "\n")
+        files.append((args.out, write, "--out"))
+    if args.plot is not None:
+        from feedopt.report.data import engagement_series
+        from feedopt.report.plots import engagement_figure
+
+        series = engagement_series(front.samples, material)
+        files.append((args.plot, lambda tmp: engagement_figure(series).savefig(tmp, dpi=120),
+                      "--plot"))
+    write_files_atomically(files)
+    for f in (args.out, args.plot):
+        if f is not None:
+            print(f"wrote {f}")
+    return 0
