@@ -1,4 +1,6 @@
-"""Engagement from a Z-map stock against the analytic engagement of straight cuts and a corner."""
+"""Engagement from a Z-map stock against analytic engagement (straight cuts, offset passes, the
+chapter-4 ramp, corner arcs, entering and leaving), removed volumes, stocks from meshes, and the
+fast sweep against the window sweep it replaced."""
 
 from __future__ import annotations
 
@@ -7,13 +9,17 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+import feedopt.process.stock as stock_module
 from feedopt.errors import InputError
 from feedopt.process.engagement import peripheral_engagement, slot_engagement
 from feedopt.process.stock import (
     FlatEndMill,
     ZMap,
     angle_error_bound,
+    lookahead_reach,
     snap_angle,
     sweep,
 )
@@ -192,3 +198,723 @@ def test_memory_and_timing_of_a_200_by_100_box(capsys):
             f"(step {np.linalg.norm(np.diff(pos, axis=0), axis=1).mean() / MM:.3f} mm) "
             f"in {elapsed:.2f} s"
         )
+
+
+def arc(centre, radius, t0, t1, z, step=0.1 * MM):
+    """Samples every ~step on the arc of ``radius`` about ``centre`` from angle t0 to t1."""
+    n = int(round(abs(t1 - t0) * radius / step)) + 1
+    t = np.linspace(t0, t1, n)
+    pos = np.column_stack(
+        [centre[0] + radius * np.cos(t), centre[1] + radius * np.sin(t), np.full(n, z)]
+    )
+    sense = math.copysign(1.0, t1 - t0)
+    tan = np.column_stack([-np.sin(t) * sense, np.cos(t) * sense, np.zeros(n)])
+    return pos, tan
+
+
+def chain(*pieces):
+    """Concatenate (pos, tan) pieces that share their end points."""
+    pos = np.concatenate([pieces[0][0]] + [p[0][1:] for p in pieces[1:]])
+    tan = np.concatenate([pieces[0][1]] + [p[1][1:] for p in pieces[1:]])
+    return pos, tan
+
+
+def pocket_path(step=0.1 * MM):
+    """A small pocket-like path: a 20 mm ramp, then inside-out rounded rectangles, 2 levels."""
+    cx, cy = 40 * MM, 30 * MM
+    pieces = []
+    z_prev = 20 * MM
+    for z in (18 * MM, 16 * MM):
+        pieces.append(line([cx - 20 * MM, cy, z_prev], [cx, cy, z], step))
+        last = np.array([cx, cy, z])
+        for hx, hy in ((8 * MM, 2 * MM), (16 * MM, 10 * MM)):
+            start = np.array([cx + hx, cy, z])
+            pieces.append(line(last, start, step))
+            rho = 2 * MM
+            legs = [
+                arc((cx + hx - rho, cy + hy - rho), rho, 0, math.pi / 2, z, step),
+                arc((cx - hx + rho, cy + hy - rho), rho, math.pi / 2, math.pi, z, step),
+                arc((cx - hx + rho, cy - hy + rho), rho, math.pi, 1.5 * math.pi, z, step),
+                arc((cx + hx - rho, cy - hy + rho), rho, 1.5 * math.pi, 2 * math.pi, z, step),
+            ]
+            seq = [line(start, legs[0][0][0], step)]
+            for k in range(4):
+                seq.append(legs[k])
+                nxt = legs[(k + 1) % 4][0][0] if k < 3 else start
+                seq.append(line(legs[k][0][-1], nxt, step))
+            pieces.extend(seq)
+            last = start
+        pieces.append(line(last, [cx - 20 * MM, cy, z], step))
+        z_prev = z
+    pos = np.concatenate([p[0] for p in pieces])
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(pos, axis=0), axis=1) > 0])
+    pos = pos[keep]
+    return pos, np.gradient(pos, axis=0)
+
+
+def _compare_with_reference(stock, pos, tan, lookahead=None):
+    ref_stock = stock.copy()
+    ref = _reference_sweep(ref_stock, TOOL, pos, tan, lookahead)
+    res = sweep(stock, TOOL, pos, tan, lookahead)
+    names = ("entry", "exit", "axial_depth", "in_air", "beyond_flutes", "lateral")
+    got = (
+        res.engagement.entry, res.engagement.exit, res.axial_depth, res.in_air,
+        res.beyond_flutes, res.lateral,
+    )
+    for name, a, b in zip(names, ref, got, strict=True):
+        np.testing.assert_array_equal(b, a, err_msg=name)
+    np.testing.assert_array_equal(stock.heights, ref_stock.heights)
+    return res
+
+
+def _fixed_paths():
+    s = np.linspace(0, 1, 1500)
+    wavy = np.stack(
+        [
+            5 * MM + 70 * MM * s,
+            30 * MM + 18 * MM * np.sin(3 * math.pi * s),
+            np.full_like(s, 17 * MM),
+        ],
+        axis=1,
+    )
+    ramp = wavy.copy()
+    ramp[:, 2] = np.where(s < 0.3, 19 * MM - 6 * MM * s / 0.3, 13 * MM)
+    t = np.linspace(0, 4 * math.pi, 1200)
+    helix = np.stack(
+        [40 * MM + 8 * MM * np.cos(t), 30 * MM + 8 * MM * np.sin(t), 20 * MM - MM * t / math.pi],
+        axis=1,
+    )
+    rng = np.random.default_rng(3)
+    coarse = np.cumsum(rng.uniform(-3, 3, (200, 3)) * MM * [1, 1, 0.05], axis=0)
+    coarse += [40 * MM, 30 * MM, 15 * MM]
+    x_line = line([-10 * MM, 30.02 * MM, 16 * MM], [90 * MM, 30.02 * MM, 16 * MM], 0.1 * MM)
+    y_line = line([40.01 * MM, -5 * MM, 16 * MM], [40.01 * MM, 70 * MM, 16 * MM], 0.3 * MM)
+    return {
+        "wavy level": (wavy, np.gradient(wavy, axis=0), None),
+        "ramp then level": (ramp, np.gradient(ramp, axis=0), None),
+        "helix": (helix, np.gradient(helix, axis=0), None),
+        "coarse random": (coarse, np.gradient(coarse, axis=0) + [1e-9, 0, 0], None),
+        "along x, no lookahead": (*x_line, 0.0),
+        "along y, long lookahead": (*y_line, 1.0 * MM),
+        "pocket": (*pocket_path(), None),
+    }
+
+
+@pytest.mark.parametrize("name", list(_fixed_paths()))
+def test_fast_sweep_equals_reference_sweep(name):
+    """The fast sweep finds exactly the engagement and heights of the window sweep."""
+    pos, tan, look = _fixed_paths()[name]
+    stock = ZMap.box(0, 80 * MM, 0, 60 * MM, 0, 20 * MM)
+    stock.heights[100:180, 60:120] = 12 * MM  # a step in the stock
+    _compare_with_reference(stock, pos, tan, look)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    step_mm=st.sampled_from([0.05, 0.1, 0.3, 2.0]),
+    cell_mm=st.sampled_from([0.13, 0.25, 0.5]),
+    z_kind=st.sampled_from(["level", "descending", "steps"]),
+)
+def test_fast_sweep_equals_reference_on_random_paths(seed, step_mm, cell_mm, z_kind):
+    rng = np.random.default_rng(seed)
+    stock = ZMap.box(0, 60 * MM, 0, 50 * MM, 0, 20 * MM, cell=cell_mm * MM)
+    stock.heights[rng.integers(0, stock.shape[0], 30), rng.integers(0, stock.shape[1], 30)] = 5 * MM
+    n = 250
+    heading = np.cumsum(rng.normal(0, 0.1, n)) + rng.uniform(0, 2 * math.pi)
+    xy = np.cumsum(np.stack([np.cos(heading), np.sin(heading)], 1) * step_mm * MM, axis=0)
+    xy += [30 * MM, 25 * MM]
+    z = {
+        "level": np.full(n, 15 * MM),
+        "descending": 18 * MM - np.cumsum(rng.uniform(0, 0.02, n)) * MM,
+        "steps": np.where(rng.random(n) < 0.1, 12 * MM, 14 * MM),
+    }[z_kind]
+    pos = np.column_stack([xy, z])
+    _compare_with_reference(stock, pos, np.gradient(pos, axis=0) + [1e-12, 0, 0])
+
+
+# ---------------------------------------------------------------------------------- removed
+
+
+def test_removed_adds_up_to_the_volume_cut_by_a_pocket():
+    stock = ZMap.box(0, 80 * MM, 0, 60 * MM, 0, 20 * MM)
+    before = stock.volume()
+    res = sweep(stock, TOOL, *pocket_path())
+    assert np.all(res.removed >= 0)
+    assert res.removed.sum() == pytest.approx(before - stock.volume(), rel=1e-6)
+    assert res.removed.sum() > 0.5 * (32 * 20 + 16 * 4) * 4 * MM**3  # it did clear the pocket
+    # a second run over the cleared pocket removes nothing (it may still see the walls
+    # through the lookahead)
+    again = sweep(stock, TOOL, *pocket_path())
+    assert again.removed.sum() == 0.0
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 27.0])
+def test_removed_by_a_straight_slot_is_the_capsule_volume(angle_deg):
+    """A slot plunged at A (sample 0 removes its disc) and cut to B removes the capsule
+    ``(L D + pi R^2) depth``. The cells removed are those whose centre is inside the capsule,
+    so their area is within that of the capsule dilated and eroded by h / sqrt 2: the error is
+    at most ``depth (P h / sqrt 2 + pi h^2 / 2)`` with P = 2 L + 2 pi R (2.2 % here; the
+    actual error is far smaller as cells cancel along the boundary)."""
+    u = np.array([math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg)), 0.0])
+    a = np.array([20.03 * MM, 25.07 * MM, 16 * MM])
+    length = 60 * MM
+    stock = ZMap.box(0, 100 * MM, 0, 80 * MM, 0, 20 * MM)
+    before = stock.volume()
+    res = sweep(stock, TOOL, *line(a, a + length * u, 0.1 * MM))
+    depth = 4 * MM
+    capsule = (length * D + math.pi * R**2) * depth
+    bound = depth * ((2 * length + 2 * math.pi * R) * H / math.sqrt(2) + math.pi * H**2 / 2)
+    assert res.removed.sum() == pytest.approx(before - stock.volume(), rel=1e-6)
+    assert abs(res.removed.sum() - capsule) <= bound
+    # per step in the steady part: D ds depth on average (same boundary argument over 40 mm)
+    steady = slice(100, 500)
+    seg = 40 * MM
+    assert abs(res.removed[steady].sum() - D * seg * depth) <= depth * 2 * (seg + D) * H
+
+
+# --------------------------------------------------------------------------- offset passes
+
+
+def _offset_pass(radius, b, angle, side, reverse, step=0.25 * MM):
+    """Slot 1 along u, then pass 2 offset b to the left (side +1) or right (-1) of u, fed
+    along u or -u. Returns pass 2's result, the samples well inside, and the milling mode."""
+    tool = FlatEndMill(radius, 30 * MM)
+    stock = ZMap.box(0, 140 * MM, 0, 140 * MM, 0, 20 * MM)
+    u = np.array([math.cos(angle), math.sin(angle), 0.0])
+    left = np.array([-u[1], u[0], 0.0])
+    c = np.array([70.011 * MM, 70.023 * MM, 16 * MM])
+    sweep(stock, tool, *line(c - 60 * MM * u, c + 60 * MM * u, step))
+    a, e = c + side * b * left - 60 * MM * u, c + side * b * left + 60 * MM * u
+    pos, tan = line(e, a, step) if reverse else line(a, e, step)
+    res = sweep(stock, tool, pos, tan)
+    inside = np.abs((pos - c) @ u) < 30 * MM
+    milling = "up" if (side > 0) != reverse else "down"
+    return res, inside, milling, tool
+
+
+@pytest.mark.parametrize("side", [1, -1])
+@pytest.mark.parametrize("reverse", [False, True])
+def test_offset_pass_gives_arccos_of_the_step_over_on_the_right_side(side, reverse):
+    """Pass 2 offset b from slot 1: the material left is b wide on the offset side, so the
+    engagement is [0, arccos(1 - 2b/D)] with it on the left of the feed (up milling) and
+    [pi - arccos(1 - 2b/D), pi] with it on the right (down milling)."""
+    b = 3.7 * MM
+    res, inside, milling, _ = _offset_pass(R, b, math.radians(23.0), side, reverse)
+    sweep_angle = math.acos(1 - 2 * b / D)
+    if milling == "up":
+        entry, exit_ = 0.0, sweep_angle
+    else:
+        entry, exit_ = math.pi - sweep_angle, math.pi
+    assert not res.in_air[inside].any()
+    assert_angles(res.engagement.entry[inside], entry)
+    assert_angles(res.engagement.exit[inside], exit_)
+    np.testing.assert_allclose(res.axial_depth[inside], 4 * MM, atol=1e-8)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    radius_mm=st.floats(3.0, 12.0),
+    b_frac=st.floats(0.0, 1.0),
+    angle=st.floats(0.0, 2 * math.pi),
+    side=st.sampled_from([1, -1]),
+    reverse=st.booleans(),
+)
+def test_offset_pass_angles_hypothesis(radius_mm, b_frac, angle, side, reverse):
+    radius = radius_mm * MM
+    b = 0.5 * MM + b_frac * (2 * radius - 1.0 * MM)  # step-over in [0.5 mm, D - 0.5 mm]
+    res, inside, milling, tool = _offset_pass(radius, b, angle, side, reverse)
+    sweep_angle = math.acos(1 - b / radius)
+    entry, exit_ = (0.0, sweep_angle) if milling == "up" else (math.pi - sweep_angle, math.pi)
+    assert not res.in_air[inside].any()
+    for got, want in ((res.engagement.entry[inside], entry), (res.engagement.exit[inside], exit_)):
+        bound = angle_error_bound(want, H, radius)
+        assert np.all(np.abs(got - want) <= bound + 1e-12)
+
+
+# ------------------------------------------------------------------------ chapter-4 ramp
+
+
+def test_chapter4_inclined_line_radial_depth_grows_from_0_to_9525():
+    """Thesis chapter 4: a 203.2 x 50.8 x 25.4 mm block, the tool (2.54 mm deep) along x over
+    203.2 mm, drifting 9.525 mm to -y into the block on its right (down milling), starting
+    tangent to the block's edge y = Y. The block is placed with that edge on a cell boundary
+    (ZMap.box rounds the far sides up to whole cells: 50.8 mm would end at 51.0 mm).
+
+    Analytic engagement: with d = y_c - Y, the rim meets the (uncut) edge ahead of the centre
+    at dx = sqrt(R^2 - d^2) in W, whose lateral coordinate in the force frame is
+    ``y* = sqrt(R^2 - d^2) sin(a) - d cos(a)`` (a = atan(9.525 / 203.2), the angle between
+    the feed and the edge), so the radial depth seen by the teeth is ``ae = R + y*``. It grows
+    from R (1 - cos a) = 0.01 mm to R (1 + sin a) = 9.97 mm, not exactly linearly, and is
+    above the nominal ramp ae_n = R - d (0 -> 9.525 mm, linear) by up to R sin a = 0.45 mm:
+    the inclined edge is met ahead of the centre. Resolution: h / sqrt 2 plus the view ahead
+    and behind the rim times the edge's slope tan(a) (:func:`angle_error_bound`).
+    """
+    length, width, thick, drift = 203.2 * MM, 50.8 * MM, 25.4 * MM, 9.525 * MM
+    y_edge = width
+    stock = ZMap.box(0, length, y_edge - 204 * H, y_edge, 0, thick)
+    assert stock.origin[1] + stock.shape[1] * H == pytest.approx(y_edge, abs=1e-12)
+    ztip = thick - 2.54 * MM
+    step = 0.1 * MM
+    a = np.array([0.0, y_edge + R, ztip])
+    b = np.array([length, y_edge + R - drift, ztip])
+    pos, tan = line(a, b, step)
+    res = sweep(stock, TOOL, pos, tan)
+    alpha = math.atan2(drift, length)
+    d = pos[:, 1] - y_edge
+    ahead = np.sqrt(np.maximum(R**2 - d**2, 0.0))
+    ae_true = R - d * math.cos(alpha) + ahead * math.sin(alpha)
+    ae_nominal = R - d
+    along = pos[:, 0] + ahead < length - 2 * MM  # the crossing well before the block's end
+    entry_true = np.arccos(np.clip(ae_true / R - 1.0, -1.0, 1.0))
+    reach = lookahead_reach(entry_true, H, R, step)
+    slack = math.tan(alpha) * (reach + step)
+    engaged = ~res.in_air
+    # ae below about one cell is not resolved; beyond it every sample cuts
+    assert engaged[along & (ae_true > math.sqrt(2) * H)].all()
+    sel = along & engaged
+    ae_meas = res.lateral[:, 1] + R  # down milling: material from -R up to y_hi
+    err = np.abs(ae_meas - ae_true)
+    assert np.all(err[sel] <= H / math.sqrt(2) + slack[sel]), float(np.max(err[sel]) / MM)
+    assert_angles(res.engagement.exit[sel], math.pi)
+    bound = angle_error_bound(entry_true[sel], H, R, lateral=slack[sel])
+    assert np.all(np.abs(res.engagement.entry[sel] - entry_true[sel]) <= bound)
+    np.testing.assert_allclose(res.axial_depth[sel], 2.54 * MM, atol=1e-8)
+    # against the nominal linear ramp: within the resolution, plus up to R sin(a) above it
+    over = ae_meas[sel] - ae_nominal[sel]
+    assert np.all(over >= -H / math.sqrt(2))
+    assert np.all(over <= R * math.sin(alpha) + H / math.sqrt(2) + slack[sel])
+    # and it does grow linearly to first order: slope of the fit 9.525 mm / 203.2 mm +- 5 %
+    fit = np.polyfit(pos[sel, 0], ae_meas[sel], 1)[0]
+    assert fit == pytest.approx(drift / length, rel=0.05)
+    assert ae_meas[sel][-1] > 9.0 * MM
+
+
+# ------------------------------------------------------------------------------ corner arcs
+
+
+def circle_engagement_cos(r_c, r_m):
+    """cos of the engaged half-angle for a cutter of radius R centred on a circle of radius
+    r_c, concentric with a material boundary circle of radius r_m.
+
+    A rim point c + R v is at distance ``sqrt(r_c^2 + R^2 + 2 r_c R (u.v))`` from the common
+    centre O (u = unit vector from O to c), so it is on the boundary where
+    ``u.v = kappa = (r_m^2 - r_c^2 - R^2) / (2 r_c R)`` (intersection of two circles; cf.
+    Altintas, Manufacturing Automation, 2nd ed., ch. 2 on radial immersion, and the
+    circular-path engagement of Kramer 1992 / Wang & Zheng 2002). The feed is tangent,
+    perpendicular to u, and a tooth at phi is at v = sin(phi) f + cos(phi) y:
+
+    * inside corner (material outside the circle r_m, on the outer side u = +y: the cutter
+      turns towards the material): engaged where u.v = cos(phi) >= kappa, phi in
+      [0, arccos(kappa)] (up milling);
+    * outside corner (material inside r_m, on the inner side -u = +y): engaged where
+      u.v = -cos(phi) <= kappa, phi in [0, arccos(-kappa)].
+
+    With r_m = r_c + R - b (inside) or r_c - R + b (outside), kappa -> 1 - b/R as r_c -> oo,
+    the straight cut; inside corners raise, outside corners lower the engagement.
+    """
+    return (r_m**2 - r_c**2 - R**2) / (2 * r_c * R)
+
+
+def _arc_bound(phi, r_m, r_c, step):
+    """angle_error_bound with the slope of the boundary circle r_m at the rim crossing."""
+    dx = R * np.sin(phi)
+    slope = dx / np.sqrt(r_m**2 - dx**2)
+    return angle_error_bound(phi, H, R, lateral=slope * (lookahead_reach(phi, H, R, step)
+                                                         + step * (1 + R / r_c)))
+
+
+CORNERS = [(2.0, 12.0), (1.0, 15.0), (4.0, 20.0), (6.0, 11.0)]
+
+
+@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
+def test_inside_corner_arc_raises_engagement_as_two_circles_give(b_mm, r_mm):
+    """A pocket wall y = Yw, x = Xw (material beyond them) with a corner rounded to r_m about
+    O, cut at radial depth b: the tool runs +x along the wall (on its left), around O on an
+    arc of radius r_c = r_m - R + b (clockwise, 90 deg) and down -y along the other wall.
+    In the middle third of the arc the exit angle is arccos(kappa), entry 0."""
+    b, step, z_floor = b_mm * MM, 0.1 * MM, 10 * MM
+    r_c = r_mm * MM
+    r_m = r_c + R - b
+    xw, yw = 70.03 * MM, 60.07 * MM
+    o = (xw - r_m, yw - r_m)
+    stock = ZMap.box(0, 100 * MM, 0, 80 * MM, 0, 20 * MM)
+    x, y = np.meshgrid(stock.x_centres, stock.y_centres, indexing="ij")
+    pocket = ((x < o[0]) & (y < yw)) | ((x < xw) & (y < o[1]))
+    pocket |= (x - o[0]) ** 2 + (y - o[1]) ** 2 < r_m**2
+    stock.heights[pocket] = z_floor
+    legs = (
+        line([5 * MM, o[1] + r_c, z_floor], [o[0], o[1] + r_c, z_floor], step),
+        arc(o, r_c, math.pi / 2, 0.0, z_floor, step),
+        line([o[0] + r_c, o[1], z_floor], [o[0] + r_c, 5 * MM, z_floor], step),
+    )
+    pos, tan = chain(*legs)
+    res = sweep(stock, TOOL, pos, tan)
+    polar = np.arctan2(pos[:, 1] - o[1], pos[:, 0] - o[0])
+    on_arc = np.zeros(len(pos), dtype=bool)
+    n1, n2 = len(legs[0][0]), len(legs[1][0])
+    on_arc[n1 : n1 + n2 - 2] = True
+    middle = on_arc & (polar > math.radians(30)) & (polar < math.radians(60))
+    expected = math.acos(circle_engagement_cos(r_c, r_m))
+    assert not res.in_air[middle].any()
+    assert_angles(res.engagement.entry[middle], 0.0)
+    err = np.abs(res.engagement.exit[middle] - expected)
+    assert np.all(err <= _arc_bound(expected, r_m, r_c, step)), float(err.max())
+    straight = math.acos(1 - b / R)
+    assert expected > straight and res.engagement.exit[middle].mean() > straight  # a rise
+
+
+@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
+def test_outside_corner_arc_lowers_engagement_as_two_circles_give(b_mm, r_mm):
+    """An island x < Xi, y < Yi with its corner rounded to r_m about O, cut at radial depth
+    b: the tool runs +y along its side (on its left), around O counter-clockwise on an arc
+    of radius r_c = r_m + R - b and -x along its top. Middle third of the arc: exit
+    arccos(-kappa) < arccos(1 - b/R), entry 0."""
+    b, step, z_floor = b_mm * MM, 0.1 * MM, 10 * MM
+    r_m = r_mm * MM
+    r_c = r_m + R - b
+    xi, yi = 60.03 * MM, 50.07 * MM
+    o = (xi - r_m, yi - r_m)
+    stock = ZMap.box(0, 100 * MM, 0, 80 * MM, 0, 20 * MM)
+    x, y = np.meshgrid(stock.x_centres, stock.y_centres, indexing="ij")
+    island = ((x < o[0]) & (y < yi)) | ((x < xi) & (y < o[1]))
+    island |= (x - o[0]) ** 2 + (y - o[1]) ** 2 < r_m**2
+    stock.heights[~island] = z_floor
+    legs = (
+        line([o[0] + r_c, 2 * MM, z_floor], [o[0] + r_c, o[1], z_floor], step),
+        arc(o, r_c, 0.0, math.pi / 2, z_floor, step),
+        line([o[0], o[1] + r_c, z_floor], [2 * MM, o[1] + r_c, z_floor], step),
+    )
+    pos, tan = chain(*legs)
+    res = sweep(stock, TOOL, pos, tan)
+    polar = np.arctan2(pos[:, 1] - o[1], pos[:, 0] - o[0])
+    on_arc = np.zeros(len(pos), dtype=bool)
+    n1, n2 = len(legs[0][0]), len(legs[1][0])
+    on_arc[n1 : n1 + n2 - 2] = True
+    middle = on_arc & (polar > math.radians(30)) & (polar < math.radians(60))
+    expected = math.acos(-circle_engagement_cos(r_c, r_m))
+    assert not res.in_air[middle].any()
+    assert_angles(res.engagement.entry[middle], 0.0)
+    err = np.abs(res.engagement.exit[middle] - expected)
+    assert np.all(err <= _arc_bound(expected, r_m, r_c, step)), float(err.max())
+    straight = math.acos(1 - b / R)
+    assert expected < straight and res.engagement.exit[middle].mean() < straight  # a drop
+
+
+# ------------------------------------------------------------------- entering and leaving
+
+
+def _hull(x_c, band, x0, x1, reach, phi):
+    """Hull [entry, exit] of the tooth angles phi whose rim point (x_c + R sin phi, lateral
+    R cos phi) lies in material x in [x0 - reach(phi), x1], lateral in ``band``; (nan, nan)
+    for none."""
+    xr = x_c + R * np.sin(phi)
+    lat = R * np.cos(phi)
+    hit = (xr >= x0 - reach) & (xr <= x1) & (lat >= band[0]) & (lat <= band[1])
+    if not hit.any():
+        return math.nan, math.nan
+    return float(phi[hit].min()), float(phi[hit].max())
+
+
+@pytest.mark.parametrize(("mode", "ae_mm"), [("slot", None), ("up", 3.0), ("down", 3.0),
+                                             ("up", 8.0)])
+@pytest.mark.parametrize("step_mm", [0.1, 0.37])
+def test_entering_and_leaving_the_stock(mode, ae_mm, step_mm):
+    """Feed +x through a block x in [X0, X1] (a slot, or a side cut of radial depth ae with
+    the block on the left or the right), from air to air.
+
+    The disc first meets the block at x_c = X0 - sqrt(R^2 - y_e^2) (y_e: lateral offset of
+    the block's edge, 0 for a slot): the first engaged sample is within one cell plus one
+    step of it (the lookahead sees the face ahead up to sqrt(2) h - ds early, a face on a
+    cell boundary is seen h/2 late). While entering, the engaged angles are those whose rim
+    point is inside the block (x >= X0); the Z-map sees the face between ``lookahead_reach``
+    early and a cell late. The last contact is where the rim passes X1 at phi = 0 or pi, a
+    tangent contact: material a cell wide is not resolved there (the snap zone), so the
+    engagement drops to zero within R sin(snap angle) + h + ds before x_c = X1; until then
+    the angles are those of the rim points with x <= X1 (hull of both sides for a slot),
+    with the face seen up to a step plus a cell late.
+    """
+    step = step_mm * MM
+    x0, x1 = 20 * MM, 70 * MM
+    yc = 40.013 * MM
+    stock = ZMap.box(0, 100 * MM, 0, 80 * MM, 0, 20 * MM)
+    x, y = np.meshgrid(stock.x_centres, stock.y_centres, indexing="ij")
+    if mode == "slot":
+        y0, y1 = 10 * MM, 70 * MM
+    elif mode == "up":
+        y0, y1 = yc + R - ae_mm * MM, 70 * MM
+    else:
+        y0, y1 = 10 * MM, yc - R + ae_mm * MM
+    stock.heights[~((x > x0) & (x < x1) & (y > y0) & (y < y1))] = 0.0
+    n = int(round(100 * MM / step)) + 1
+    pos = np.column_stack(
+        [-5 * MM + 0.0031 * MM + step * np.arange(n), np.full(n, yc), np.full(n, 17 * MM)]
+    )
+    res = sweep(stock, TOOL, pos, np.tile([1.0, 0.0, 0.0], (n, 1)))
+    band = (max(y0 - yc, -R), min(y1 - yc, R))
+    y_e = 0.0 if mode == "slot" else (band[0] if mode == "up" else band[1])
+    contact = x0 - math.sqrt(R**2 - y_e**2)
+    engaged = ~res.in_air
+    first = pos[np.argmax(engaged), 0]
+    last = pos[n - 1 - np.argmax(engaged[::-1]), 0]
+    assert abs(first - contact) <= H + step
+    r_snap = R * math.sin(snap_angle(H, R))
+    assert x1 - r_snap - H - step <= last <= x1
+    # the angles, sample by sample, between the early and the late view of both faces; the
+    # late view leaves out the teeth in the snap zone (a sliver there may not show)
+    phi = np.linspace(0.0, math.pi, 4001)
+    reach = lookahead_reach(phi, H, R, step)
+    snap = snap_angle(H, R)
+    resolved = np.where((phi >= snap) & (phi <= math.pi - snap), 0.0, np.inf)
+    for i in range(n):
+        xc = pos[i, 0]
+        late = _hull(xc, band, x0 + H + resolved, x1 - H - resolved, 0.0, phi)
+        early = _hull(xc, band, x0 - H, x1 + step + H, reach, phi)
+        ent, ex = res.engagement.entry[i], res.engagement.exit[i]
+        if not math.isnan(late[0]):
+            assert engaged[i], xc / MM
+            assert ent <= late[0] + float(angle_error_bound(late[0], H, R)), (xc / MM, late)
+            assert ex >= late[1] - float(angle_error_bound(late[1], H, R)), (xc / MM, late)
+        if engaged[i]:
+            assert not math.isnan(early[0]), xc / MM
+            assert early[0] - float(angle_error_bound(early[0], H, R)) <= ent, (xc / MM, early)
+            assert ex <= early[1] + float(angle_error_bound(early[1], H, R)), (xc / MM, early)
+    # in between, the nominal engagement
+    mid = (pos[:, 0] > x0 + R + 1 * MM) & (pos[:, 0] < x1 - R - 1 * MM)
+    if mode == "slot":
+        entry, exit_ = 0.0, math.pi
+    else:
+        sweep_angle = math.acos(1 - ae_mm * MM / R)
+        entry, exit_ = (0.0, sweep_angle) if mode == "up" else (math.pi - sweep_angle, math.pi)
+    assert_angles(res.engagement.entry[mid], entry)
+    assert_angles(res.engagement.exit[mid], exit_)
+
+
+# --------------------------------------------------------------------------- from a mesh
+
+
+def _block_mesh(xs, ys, tops):
+    """A closed mesh of blocks on a coarse grid: block (i, j) spans xs[i]..xs[i+1] by
+    ys[j]..ys[j+1] from z = 0 to tops[i][j] (0: no block). Faces: the tops, the bottoms and a
+    vertical wall wherever neighbouring heights differ (outside counts as 0)."""
+    trimesh = pytest.importorskip("trimesh")
+    tops = np.asarray(tops, dtype=float)
+    nx, ny = tops.shape
+    quads = []  # (4 corners, outward normal)
+
+    def top(i, j):
+        return tops[i, j] if 0 <= i < nx and 0 <= j < ny else 0.0
+
+    for i in range(nx):
+        for j in range(ny):
+            t = tops[i, j]
+            if t <= 0:
+                continue
+            x0, x1, y0, y1 = xs[i], xs[i + 1], ys[j], ys[j + 1]
+            quads.append(([(x0, y0, t), (x1, y0, t), (x1, y1, t), (x0, y1, t)], (0, 0, 1)))
+            quads.append(([(x0, y0, 0), (x0, y1, 0), (x1, y1, 0), (x1, y0, 0)], (0, 0, -1)))
+    for i in range(nx + 1):  # walls at x = xs[i] between block i-1 and i
+        for j in range(ny):
+            lo_h, hi_h = top(i - 1, j), top(i, j)
+            if lo_h == hi_h:
+                continue
+            z0, z1 = min(lo_h, hi_h), max(lo_h, hi_h)
+            x = xs[i]
+            normal = (1, 0, 0) if lo_h > hi_h else (-1, 0, 0)
+            quads.append(([(x, ys[j], z0), (x, ys[j + 1], z0), (x, ys[j + 1], z1),
+                           (x, ys[j], z1)], normal))
+    for j in range(ny + 1):
+        for i in range(nx):
+            lo_h, hi_h = top(i, j - 1), top(i, j)
+            if lo_h == hi_h:
+                continue
+            z0, z1 = min(lo_h, hi_h), max(lo_h, hi_h)
+            y = ys[j]
+            normal = (0, 1, 0) if lo_h > hi_h else (0, -1, 0)
+            quads.append(([(xs[i], y, z0), (xs[i + 1], y, z0), (xs[i + 1], y, z1),
+                           (xs[i], y, z1)], normal))
+    verts, faces = [], []
+    for corners, normal in quads:
+        c = np.array(corners, dtype=float)
+        if np.dot(np.cross(c[1] - c[0], c[2] - c[0]), normal) < 0:
+            c = c[::-1]
+        base = len(verts)
+        verts.extend(c)
+        faces.extend([(base, base + 1, base + 2), (base, base + 2, base + 3)])
+    mesh = trimesh.Trimesh(np.array(verts), np.array(faces), process=True)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    return mesh
+
+
+def test_from_mesh_box_equals_zmap_box(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    box = trimesh.creation.box(extents=[100.0, 50.0, 20.0])
+    box.apply_translation([60.0, 35.0, 10.0])  # [10, 110] x [10, 60] x [0, 20] mm
+    path = tmp_path / "box.stl"
+    box.export(path)
+    got = ZMap.from_mesh(path, H, scale=MM)
+    want = ZMap.box(10 * MM, 110 * MM, 10 * MM, 60 * MM, 0, 20 * MM, H)
+    assert got.shape == want.shape and got.origin == pytest.approx(want.origin, abs=1e-12)
+    assert got.bottom == pytest.approx(0.0, abs=1e-12)
+    np.testing.assert_allclose(got.heights, want.heights, atol=1e-9)
+    assert got.volume() == pytest.approx(100 * 50 * 20 * MM**3, rel=1e-6)
+
+
+def test_from_mesh_box_with_pocket_and_hole(tmp_path):
+    """A 100 x 60 x 20 mm block with a 40 x 20 mm pocket 8 mm deep and a 10 x 10 mm through
+    hole (STL in mm; coarse grid breaks at the pocket and hole edges)."""
+    xs = [0.0, 10.0, 20.0, 30.0, 70.0, 100.0]
+    ys = [0.0, 20.0, 30.0, 40.0, 60.0]
+    tops = np.full((5, 4), 20.0)
+    tops[3, 1:3] = 12.0  # pocket x 30..70, y 20..40
+    tops[1, 1] = 0.0  # hole x 10..20, y 20..30
+    mesh = _block_mesh(xs, ys, tops)
+    path = tmp_path / "pocket.stl"
+    mesh.export(path)
+    cell = 0.5 * MM
+    got = ZMap.from_mesh(path, cell, scale=MM)
+    assert got.shape == (200, 120) and got.bottom == pytest.approx(0.0, abs=1e-12)
+    xc, yc = got.x_centres / MM, got.y_centres / MM
+    want = np.full(got.shape, 20.0)
+    want[np.ix_((xc > 30) & (xc < 70), (yc > 20) & (yc < 40))] = 12.0
+    want[np.ix_((xc > 10) & (xc < 20), (yc > 20) & (yc < 30))] = 0.0
+    np.testing.assert_allclose(got.heights / MM, want, atol=1e-6)
+    assert got.volume() == pytest.approx((100 * 60 * 20 - 40 * 20 * 8 - 10 * 10 * 20) * MM**3,
+                                         rel=1e-6)
+
+
+def test_from_mesh_refuses_what_a_zmap_cannot_hold(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    with pytest.raises(InputError, match="no such file"):
+        ZMap.from_mesh(tmp_path / "missing.stl")
+    junk = tmp_path / "junk.stl"
+    junk.write_text("this is not a mesh\n")
+    with pytest.raises(InputError, match="no triangles|not readable"):
+        ZMap.from_mesh(junk)
+    other = tmp_path / "numbers.txt"
+    other.write_text("1 2 3\n")
+    with pytest.raises(InputError, match="not readable as a triangle mesh"):
+        ZMap.from_mesh(other)
+    box = trimesh.creation.box(extents=[0.1, 0.05, 0.02])
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-1], process=False)
+    path = tmp_path / "open.stl"
+    open_box.export(path)
+    with pytest.raises(InputError, match="not closed"):
+        ZMap.from_mesh(path)
+    # a block floating above another: material, air, material in one column
+    lower = trimesh.creation.box(extents=[0.1, 0.05, 0.01])
+    lower.apply_translation([0.05, 0.025, 0.005])
+    upper = trimesh.creation.box(extents=[0.02, 0.02, 0.01])
+    upper.apply_translation([0.05, 0.025, 0.03])
+    path = tmp_path / "overhang.stl"
+    trimesh.util.concatenate([lower, upper]).export(path)
+    with pytest.raises(InputError, match="overhang"):
+        ZMap.from_mesh(path)
+    # a block standing beside, not on, the bottom
+    side = trimesh.creation.box(extents=[0.02, 0.02, 0.01])
+    side.apply_translation([0.15, 0.025, 0.012])
+    path = tmp_path / "floating.stl"
+    trimesh.util.concatenate([lower, side]).export(path)
+    with pytest.raises(InputError, match="flat bottom"):
+        ZMap.from_mesh(path)
+
+
+# --------------------------------------------------------------------------------------------
+# The sweep as it was before issue 12 sped it up (window of cells per sample), kept verbatim
+# to check that the fast sweep gives the same engagement and heights, cell by cell.
+# --------------------------------------------------------------------------------------------
+
+
+def _reference_sweep(stock, tool, positions, tangents, lookahead=None):
+    """Old ``sweep``: (entry, exit, axial depth, in_air, beyond_flutes, lateral)."""
+    _MIN_DEPTH = 1e-6  # noqa: N806
+    p = np.asarray(positions, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
+        raise InputError(f"positions must be a finite (n, 3) array [m], got shape {p.shape}")
+    n = p.shape[0]
+    feed = stock_module._feed_directions(tangents, n)
+    h = stock.cell
+    radius = tool.radius
+    look = math.sqrt(2.0) * h if lookahead is None else float(lookahead)
+    if not (math.isfinite(look) and look >= 0):
+        raise InputError(f"lookahead must be >= 0 mm, got {look / MM:g} mm")
+    snap = math.sqrt(2.0) * h
+    look_cap = look / max(math.sin(snap_angle(h, radius)), 1e-12)
+
+    steps = np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)
+    remaining = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]]) if n else np.zeros(0)
+    xc_all, yc_all = stock.x_centres, stock.y_centres
+    (gx0, gy0), z0 = stock.origin, stock.bottom
+    heights = stock.heights
+
+    entry = np.zeros(n)
+    exit_ = np.zeros(n)
+    depth = np.zeros(n)
+    in_air = np.ones(n, dtype=bool)
+    beyond = np.zeros(n, dtype=bool)
+    lateral = np.full((n, 2), np.nan)
+
+    for i in range(n):
+        c = p[i, :2]
+        ztip = p[i, 2]
+        fx, fy = feed[i]
+        prev = p[i - 1] if i > 0 else p[i]
+        ds = float(steps[i - 1]) if i > 0 else 0.0
+        # lookahead per lateral offset y: ``look`` normal to the rim, i.e. look / sin(phi)
+        # along the feed, capped at its value at the snap angle, less the step already taken,
+        # never past the path end
+        lam_max = min(max(0.0, look_cap - ds), float(remaining[i]))
+        ahead = c + lam_max * feed[i]
+
+        lo_x = min(c[0], prev[0], ahead[0]) - radius
+        hi_x = max(c[0], prev[0], ahead[0]) + radius
+        lo_y = min(c[1], prev[1], ahead[1]) - radius
+        hi_y = max(c[1], prev[1], ahead[1]) + radius
+        i0 = max(0, math.ceil((lo_x - gx0) / h - 0.5))
+        i1 = min(stock.shape[0], math.floor((hi_x - gx0) / h - 0.5) + 1)
+        j0 = max(0, math.ceil((lo_y - gy0) / h - 0.5))
+        j1 = min(stock.shape[1], math.floor((hi_y - gy0) / h - 0.5) + 1)
+        if i0 >= i1 or j0 >= j1:
+            continue
+        wx = xc_all[i0:i1, None] - c[0]
+        wy = yc_all[None, j0:j1] - c[1]
+        win = heights[i0:i1, j0:j1]
+
+        # engagement from the material in front, before this sample cuts
+        dx = wx * fx + wy * fy
+        dy = -wx * fy + wy * fx
+        half = np.sqrt(np.maximum(radius**2 - dy**2, 0.0))
+        lam = np.clip(look * radius / np.maximum(half, 1e-300) - ds, 0.0, lam_max)
+        front = (dx >= 0.0) & (np.abs(dy) <= radius) & (dx <= half + lam)
+        floor = max(ztip, z0)
+        material = front & (win > floor + _MIN_DEPTH)
+        if np.any(material):
+            y_m = dy[material]
+            w_half = 0.5 * h * (abs(fx) + abs(fy))
+            y_hi = float(y_m.max())
+            y_lo = float(y_m.min())
+            y_hi = radius if y_hi >= radius - snap else min(radius, y_hi + w_half)
+            y_lo = -radius if y_lo <= -radius + snap else max(-radius, y_lo - w_half)
+            top = float(win[material].max())
+            in_air[i] = False
+            entry[i] = math.acos(y_hi / radius)
+            exit_[i] = math.acos(y_lo / radius)
+            depth[i] = min(top - floor, tool.flute_length)
+            beyond[i] = top - floor > tool.flute_length
+            lateral[i] = (y_lo, y_hi)
+
+        # remove the capsule swept from sample i-1 to sample i
+        seg = c - prev[:2]
+        seg_len2 = float(seg @ seg)
+        ux = xc_all[i0:i1, None] - prev[0]
+        uy = yc_all[None, j0:j1] - prev[1]
+        if seg_len2 > 0.0:
+            s = np.clip((ux * seg[0] + uy * seg[1]) / seg_len2, 0.0, 1.0)
+        else:
+            s = np.zeros_like(ux + uy)
+        inside = (ux - s * seg[0]) ** 2 + (uy - s * seg[1]) ** 2 <= radius**2
+        z_cut = np.maximum(prev[2] + s * (ztip - prev[2]), z0)
+        np.copyto(win, np.minimum(win, z_cut).astype(np.float32), where=inside)
+
+    return entry, exit_, depth, in_air, beyond, lateral
+
