@@ -154,16 +154,27 @@ def _ramp(ramp: Ramp) -> dict:
     }
 
 
+#: window over which the peak removal rate is averaged [m] (per sample the removed volume
+#: fluctuates with the Z-map cells)
+RATE_WINDOW = 1.0 * MM
+
+
 def removal_rates(prepared: Prepared, feed: np.ndarray) -> np.ndarray | None:
-    """Material removal rate [mm^3/s] per sample at the path feed ``feed`` [m/s]:
-    a_e a_p v_f, the radial depth (lateral extent of the material the stock gave) times the
-    axial depth times the feed; None without a stock."""
+    """Material removal rate [mm^3/s] per sample at the path feed ``feed`` [m/s]: the volume
+    each sample's sweep step removed (over its arc length ds) times the feed, averaged over
+    :data:`RATE_WINDOW`; its time integral is the removed volume. None without a stock."""
     material = prepared.process.material
     if material is None:
         return None
-    found = material.found
-    width = np.where(found.in_air, 0.0, np.nan_to_num(found.lateral[:, 1] - found.lateral[:, 0]))
-    return width * found.axial_depth * np.asarray(feed, dtype=float) / MM**3
+    s = prepared.samples.s
+    removed = material.found.removed
+    ds = np.diff(s, prepend=s[0])
+    width = max(1, int(round(RATE_WINDOW / max(float(np.median(ds[1:])) if s.size > 1
+                                               else RATE_WINDOW, 1e-12))))
+    kernel = np.ones(width) / width
+    per_length = np.convolve(removed, kernel, mode="same") / np.convolve(
+        np.maximum(ds, 1e-300), kernel, mode="same")
+    return per_length * np.asarray(feed, dtype=float) / MM**3
 
 
 def stock_summary(prepared: Prepared) -> dict | None:

@@ -142,4 +142,18 @@ def test_the_run_report_has_the_engagement_figure_and_the_removal_rate(tmp_path)
     rate = summary["laws"]["jerk"]["material_removal_rate"]
     duration = summary["laws"]["jerk"]["cycle_time_s"]
     assert rate["mean_mm3_s"] == pytest.approx(stock["removed_mm3"] / duration)
-    assert rate["max_mm3_s"] <= 9.525 * 1.5 * 4.23 * 1.01  # a_e a_p v_f at its largest
+    # its peak: a_e a_p v_f at its largest (the widest engagement runs at the lowest feed)
+    assert rate["max_mm3_s"] <= 9.525 * 1.5 * 4.23 * 1.05
+
+
+def test_removal_rate_integrates_to_the_removed_volume():
+    """The time integral of the removal rate along a law's feed is the removed volume."""
+    from feedopt.report.summary import removal_rates
+
+    sc, base = load_scenario(SCENARIOS / "linear_peripheral_stock.yaml")
+    prepared = prepare(sc, base, progress=quiet, spacing_mm=0.5)
+    feed = np.full(prepared.samples.s.size, 3e-3)  # 3 mm/s everywhere
+    rate = removal_rates(prepared, feed)  # mm^3/s
+    dt = np.diff(prepared.samples.s, prepend=0.0) / feed
+    removed = prepared.process.material.removed_volume / 1e-9  # mm^3
+    assert np.sum(rate * dt) == pytest.approx(removed, rel=0.01)
