@@ -108,9 +108,10 @@ class PathSection(_Strict):
                                             "moves (rapids, plunges, retracts) (mm)")
     arc_tolerance_mm: PositiveFloat = Field(0.002, description="gcode: largest difference of "
                                             "an arc's start and end radius (mm)")
-    stock_top_mm: FiniteFloat = Field(0.0, description="gcode: Z of the stock's top face in "
-                                      "the program frame (CAM convention: G54 Z0 on top); "
-                                      "cut moves above it are in air, plunges below it refused")
+    stock_top_mm: FiniteFloat = Field(0.0, description="gcode without a stock: section: Z of "
+                                      "the stock's top face in the program frame (CAM "
+                                      "convention: G54 Z0 on top); cut moves above it are in "
+                                      "air, plunges below it refused")
     chain_max_move_mm: PositiveFloat = Field(2.0, description="gcode: G1 cut moves up to this "
                                              "long may be smoothed together as a free-form "
                                              "chain (mm)")
