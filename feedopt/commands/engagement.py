@@ -38,20 +38,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def engagement_table(front) -> np.ndarray:
-    """(n, 9) rows of the CSV (NaN for empty cells)."""
-    found = front.process.material.found
-    s = front.samples.s / MM
-    pos = front.samples.position * MM_PER_M
+    """(n, 9) rows of the CSV (NaN for empty cells), from the report's
+    :func:`~feedopt.report.data.engagement_series`."""
+    from feedopt.report.data import engagement_series
+
+    eng = engagement_series(front.samples, front.process.material)
     moves = front.path.moves
     line = (moves.line[moves.index_at(front.samples.s)].astype(float) if moves is not None
-            else np.full(s.size, np.nan))
-    air = found.in_air
-    entry = np.where(air, np.nan, np.degrees(found.engagement.entry))
-    exit_ = np.where(air, np.nan, np.degrees(found.engagement.exit))
-    # radial depth: the lateral extent of the material across the feed (force-model y)
-    lo, hi = found.lateral[:, 0], found.lateral[:, 1]
-    radial = np.where(air, 0.0, np.nan_to_num(hi - lo)) / MM
-    return np.column_stack([s, pos, line, entry, exit_, radial, found.axial_depth / MM])
+            else np.full(eng.s_mm.size, np.nan))
+    return np.column_stack([eng.s_mm, front.samples.position * MM_PER_M, line, eng.entry_deg,
+                            eng.exit_deg, eng.radial_mm, eng.axial_mm])
 
 
 def run(args: argparse.Namespace) -> int:

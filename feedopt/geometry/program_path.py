@@ -602,8 +602,7 @@ def _window(piece: _Piece, reach: float, at_end: bool) -> np.ndarray:
     return piece.polyline[:k]
 
 
-def _regions(stretches: list[_Stretch], starts: np.ndarray, n_junctions: int
-             ) -> dict[int, tuple[int, int]]:
+def _regions(stretches: list[_Stretch]) -> dict[int, tuple[int, int]]:
     """Per programmed junction, the first and last stretch index of its blend/transitions
     (transitions at the outer ends of a blend included)."""
     out: dict[int, tuple[int, int]] = {}
@@ -680,12 +679,10 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
     at, _, _ = _non_g2(path0, stretches0)
     junction_of = np.array([_junction_of(stretches0, i) for i in at], dtype=int)
     scale = np.ones(at.size)
-    feasible = np.zeros(at.size, dtype=bool)
     for _round in range(MAX_ROUNDS):
         stretches = _with_transitions(stretches0, path0, at, scale, junction_of)
         path = _stretch_path(stretches)
-        regions = _regions(stretches, path.segment_start, m - 1)
-        dev = _deviations(path, stretches, regions, pieces)
+        dev = _deviations(path, stretches, _regions(stretches), pieces)
         over = np.array([dev[j][0] > tol[j] for j in junction_of], dtype=bool)
         if not over.any():
             break
@@ -694,11 +691,10 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
         smooth = turn[junction_of] < 1e-3
         factor = np.clip(0.95 * np.where(smooth, np.sqrt(ratio), ratio), 0.05, 0.9)
         scale = np.where(over, scale * factor, scale)
-        feasible |= ~over
-        if np.any(over & (scale * 1e9 < 1e-7)):  # pragma: no cover - guarded below
-            break
-    else:
-        over = np.array([dev[j][0] > tol[j] for j in junction_of], dtype=bool)
+        length = {x.junction: x.length for x in stretches if x.kind == TRANSITION}
+        if any(o and length.get(int(j), 0.0) * f < MIN_TRANSITION
+               for o, j, f in zip(over, junction_of, factor, strict=True)):
+            break  # too short to build reliably: refused below
     if over.any():
         k = int(np.flatnonzero(over)[0])
         j = int(junction_of[k])
