@@ -28,7 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from feedopt.process.stock import FlatEndMill, ZMap, sweep  # noqa: E402
+from feedopt.process.stock import FlatEndMill, ZMap, angle_error_bound, sweep  # noqa: E402
 
 MM = 1e-3
 RADIUS = 9.525 * MM
@@ -95,11 +95,12 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
 
 
-def main(quick: bool = False, repeat: int = 1, traced: bool = False) -> dict[str, float]:
+def main(quick: bool = False, repeat: int = 1, traced: bool = False,
+         cell_mm: float = 0.25) -> dict[str, float]:
     n = 10_000 if quick else 100_000
     pos, tan = pocket_path(n)
     tool = FlatEndMill(RADIUS, 25 * MM)
-    stock0 = ZMap.box(*BOX)
+    stock0 = ZMap.box(*BOX, cell=cell_mm * MM)
     steps = np.linalg.norm(np.diff(pos, axis=0), axis=1)
     level = np.concatenate([[False], pos[1:, 2] == pos[:-1, 2]])
     print(
@@ -120,6 +121,11 @@ def main(quick: bool = False, repeat: int = 1, traced: bool = False) -> dict[str
     before, after = stock0.volume(), stock.volume()
     rel = abs(res.removed.sum() - (before - after)) / (before - after)
     print(f"  time {elapsed:.2f} s ({elapsed / n * 1e6:.1f} us per sample, best of {repeat})")
+    err = math.degrees(float(angle_error_bound(math.pi / 2, stock0.cell, RADIUS)))
+    err60 = math.degrees(float(angle_error_bound(math.pi / 3, stock0.cell, RADIUS)))
+    print(f"  angle error bound of a wall along the feed: {err:.2f} deg at 90 deg, {err60:.2f} "
+          f"deg at 60 deg; {int(res.engagement.pieced.sum())} samples on several pieces "
+          f"({res.intervals.count} pieces in all)")
     print(
         f"  cutting at {100 * (~res.in_air).mean():.1f} % of the samples; removed "
         f"{res.removed.sum() * 1e9:.0f} mm^3 = volume before - after within {rel:.1e}"
@@ -143,5 +149,7 @@ if __name__ == "__main__":
     parser.add_argument("--quick", action="store_true", help="1e4 samples")
     parser.add_argument("--repeat", type=int, default=1, help="timed runs (best is shown)")
     parser.add_argument("--traced", action="store_true", help="also a tracemalloc run (slow)")
+    parser.add_argument("--cell", type=float, default=0.25, metavar="MM",
+                        help="Z-map cell size [mm] (0.2 mm keeps the angles within 1 deg)")
     args = parser.parse_args()
-    main(args.quick, args.repeat, args.traced)
+    main(args.quick, args.repeat, args.traced, args.cell)

@@ -205,6 +205,11 @@ class StockSection(_Strict):
     cell_mm: Annotated[float, Field(ge=0.02, le=5.0, allow_inf_nan=False)] = Field(
         0.25, description="Z-map cell size (mm): entry/exit angles within about "
         "cell / sqrt(2) / (R sin phi) rad (1.1 deg at 0.25 mm, R 9.525 mm)")
+    depth_step_mm: Annotated[float, Field(ge=0.005, le=5.0, allow_inf_nan=False)] = Field(
+        0.1, description="axial depth resolution across the cutter (mm): where the material "
+        "top under the cutter varies (ramps, helices, steps), the engaged angles are split "
+        "into pieces whose depths differ by this much, each at its largest depth (the force "
+        "is overestimated by at most this much depth, never underestimated)")
 
     @model_validator(mode="after")
     def _one_shape(self) -> StockSection:

@@ -2,12 +2,16 @@
 
 Runs the geometry, cell and process stages (no robot, no planning) of a scenario with a
 ``stock:`` section and writes one row per path sample: ``s_mm,x_mm,y_mm,z_mm,line,entry_deg,
-exit_deg,radial_depth_mm,axial_depth_mm`` (workpiece frame; ``line`` is the program line for
-a G-code path, empty otherwise; angles in the force-model frame, Altintas' convention; empty
-angles and zero depths in air). One engaged interval per sample: the hull of the engaged
-angles (two separate contacts, e.g. at an inside corner with a small radial depth, are
-reported as their hull; the force model uses the same). ``--plot`` draws the stock's top view
-with the path coloured by radial depth, and the angles and depths along s.
+exit_deg,radial_depth_mm,axial_depth_mm,intervals`` (workpiece frame; ``line`` is the program
+line for a G-code path, empty otherwise; angles in the force-model frame, Altintas'
+convention; empty angles and zero depths in air). ``entry_deg``/``exit_deg`` are the first and
+last engaged angles, ``radial_depth_mm`` the radial depth of the widest engaged interval,
+``axial_depth_mm`` the largest axial depth and ``intervals`` the number of separate engaged
+intervals (two at an inside corner cut with a small radial depth). ``--intervals`` writes
+every piece the force model sums, one row each: ``sample,s_mm,entry_deg,exit_deg,
+axial_depth_mm`` (an interval whose depth varies across the cutter is several contiguous
+pieces). ``--plot`` draws the stock's top view with the path coloured by radial depth, and the
+angles and depths along s.
 """
 
 from __future__ import annotations
@@ -17,10 +21,12 @@ import argparse
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.outfile import check_data_and_plot, write_files_atomically
+from feedopt.outfile import check_data_and_plot, check_output_file, write_files_atomically
 from feedopt.units import MM, MM_PER_M
 
-HEADER = "s_mm,x_mm,y_mm,z_mm,line,entry_deg,exit_deg,radial_depth_mm,axial_depth_mm"
+HEADER = ("s_mm,x_mm,y_mm,z_mm,line,entry_deg,exit_deg,radial_depth_mm,axial_depth_mm,"
+          "intervals")
+PIECES_HEADER = "sample,s_mm,entry_deg,exit_deg,axial_depth_mm"
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -32,13 +38,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", help="scenario YAML file with a stock: section")
     p.add_argument("--out", metavar="CSV", help="write the samples here")
     p.add_argument("--plot", metavar="PNG", help="draw the stock and the engagement here")
+    p.add_argument("--intervals", metavar="CSV",
+                   help="write every engaged piece (angles and axial depth) here: "
+                   + PIECES_HEADER)
     p.add_argument("--spacing", type=float, metavar="MM",
                    help="sample spacing [mm] (default: the scenario's path.spacing_mm)")
     p.set_defaults(func=run)
 
 
 def engagement_table(front) -> np.ndarray:
-    """(n, 9) rows of the CSV (NaN for empty cells), from the report's
+    """(n, 10) rows of the CSV (NaN for empty cells), from the report's
     :func:`~feedopt.report.data.engagement_series`."""
     from feedopt.report.data import engagement_series
 
@@ -47,7 +56,7 @@ def engagement_table(front) -> np.ndarray:
     line = (moves.line[moves.index_at(front.samples.s)].astype(float) if moves is not None
             else np.full(eng.s_mm.size, np.nan))
     return np.column_stack([eng.s_mm, front.samples.position * MM_PER_M, line, eng.entry_deg,
-                            eng.exit_deg, eng.radial_mm, eng.axial_mm])
+                            eng.exit_deg, eng.radial_mm, eng.axial_mm, eng.intervals])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,6 +65,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_data_and_plot(args.out, args.plot, [args.scenario], "engagement.csv",
                         "engagement.png")
+    if args.intervals is not None:
+        check_output_file(args.intervals, "--intervals", example="intervals.csv",
+                          inputs=[args.scenario, *(f for f in (args.out, args.plot) if f)])
     if args.spacing is not None and not (np.isfinite(args.spacing) and args.spacing > 0):
         raise InputError(f"--spacing must be a positive number of mm, got {args.spacing}")
     scenario, base_dir = load_scenario(args.scenario)
@@ -76,14 +88,26 @@ def run(args: argparse.Namespace) -> int:
         def write(tmp, table=table):
             cells = [np.char.mod("%.9g", table[:, k]) for k in range(table.shape[1])]
             cells = [np.where(np.isnan(table[:, k]), "", c) for k, c in enumerate(cells)]
-            cells[4] = np.where(np.isnan(table[:, 4]), "",
-                                np.char.mod("%d", np.nan_to_num(table[:, 4]).astype(int)))
+            for k in (4, 9):
+                cells[k] = np.where(np.isnan(table[:, k]), "",
+                                    np.char.mod("%d", np.nan_to_num(table[:, k]).astype(int)))
             rows = cells[0]
             for c in cells[1:]:
                 rows = np.char.add(np.char.add(rows, ","), c)
             with open(tmp, "w", encoding="utf-8") as fh:
                 fh.write(HEADER + "\n" + "\n".join(rows.tolist()) + "\n")
         files.append((args.out, write, "--out"))
+    if args.intervals is not None:
+        iv = found.intervals
+        pieces = np.column_stack([front.samples.s[iv.sample] * MM_PER_M, np.degrees(iv.entry),
+                                  np.degrees(iv.exit), iv.axial_depth * MM_PER_M])
+
+        def write_pieces(tmp, iv=iv, pieces=pieces):
+            rows = [f"{k},{s:.9g},{e:.9g},{x:.9g},{a:.9g}" for k, (s, e, x, a)
+                    in zip(iv.sample.tolist(), pieces.tolist(), strict=True)]
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(PIECES_HEADER + "\n" + "".join(r + "\n" for r in rows))
+        files.append((args.intervals, write_pieces, "--intervals"))
     if args.plot is not None:
         from feedopt.report.data import engagement_series
         from feedopt.report.plots import engagement_figure
@@ -92,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         files.append((args.plot, lambda tmp: engagement_figure(series).savefig(tmp, dpi=120),
                       "--plot"))
     write_files_atomically(files)
-    for f in (args.out, args.plot):
+    for f in (args.out, args.plot, args.intervals):
         if f is not None:
             print(f"wrote {f}")
     return 0

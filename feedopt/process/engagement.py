@@ -18,6 +18,74 @@ MILLING_MODES = ("up", "down")
 
 
 @dataclass(frozen=True)
+class EngagementPieces:
+    """Engaged angular intervals, each with its own axial depth, of some path samples.
+
+    Where the material in front of the cutter is not one interval of one axial depth (two
+    separate contacts at an inside corner cut with a small radial depth, a step or a slope of
+    the material top across the cutter), the engaged set of a sample is the union of its
+    pieces ``[entry_k, exit_k)`` of depth ``a_k``. A slice at height z of a tooth at immersion
+    phi cuts iff phi lies in a piece k and z < a_k, so the force of the sample is the sum of
+    the forces of its pieces (Algorithm 1 is a sum over slices; disjoint pieces share none).
+
+    Attributes
+    ----------
+    sample : (p,) int, the sample each piece belongs to, non-decreasing.
+    entry, exit : (p,) [rad], ``0 <= entry < exit <= pi``; the pieces of one sample are
+        disjoint (in increasing angle).
+    axial_depth : (p,) [m], > 0.
+    """
+
+    sample: np.ndarray
+    entry: np.ndarray
+    exit: np.ndarray
+    axial_depth: np.ndarray
+
+    def __post_init__(self) -> None:
+        sample = np.asarray(self.sample, dtype=np.int64).reshape(-1)
+        arrays = [np.asarray(getattr(self, k), dtype=float).reshape(-1)
+                  for k in ("entry", "exit", "axial_depth")]
+        if any(a.shape != sample.shape for a in arrays):
+            raise InputError("engagement pieces: sample, entry, exit and axial_depth must have "
+                             "the same length")
+        entry, exit_, depth = arrays
+        bad = (~np.isfinite(entry) | ~np.isfinite(exit_) | ~np.isfinite(depth) | (entry < 0)
+               | (exit_ <= entry) | (exit_ > np.pi) | (depth <= 0))
+        if sample.size > 1:
+            same = sample[1:] == sample[:-1]
+            bad[1:] |= (sample[1:] < sample[:-1]) | (same & (entry[1:] < exit_[:-1] - 1e-12))
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            raise InputError(
+                f"engagement piece {k} (sample {int(sample[k])}): entry {np.degrees(entry[k]):.6g}"
+                f" deg, exit {np.degrees(exit_[k]):.6g} deg, depth {depth[k] / MM:.6g} mm: pieces "
+                "need 0 <= entry < exit <= 180 deg, depth > 0, in sample order and disjoint")
+        for name, value in zip(("sample", "entry", "exit", "axial_depth"),
+                               (sample, entry, exit_, depth), strict=True):
+            object.__setattr__(self, name, value)
+
+    @property
+    def count(self) -> int:
+        """Number of pieces p."""
+        return int(self.sample.size)
+
+    def as_engagement(self) -> Engagement:
+        """The pieces as an engagement of ``p`` samples (one piece each)."""
+        return Engagement(self.entry, self.exit, self.axial_depth)
+
+    def select(self, keep: np.ndarray, renumber: bool = True) -> EngagementPieces:
+        """The pieces of the samples where ``keep`` (an (n,) bool mask over the samples)
+        holds, renumbered to the kept samples unless ``renumber`` is False."""
+        keep = np.asarray(keep, dtype=bool)
+        mine = keep[self.sample]
+        sample = self.sample[mine]
+        if renumber:
+            sample = (np.cumsum(keep) - 1)[sample]
+        return EngagementPieces(sample, self.entry[mine], self.exit[mine],
+                                self.axial_depth[mine])
+
+
+@dataclass(frozen=True)
 class Engagement:
     """Engagement of the cutter at ``n`` path samples (arrays of shape ``(n,)``).
 
@@ -26,11 +94,16 @@ class Engagement:
     entry : phi_st [rad]
     exit : phi_ex [rad]; ``exit == entry`` means the tool is not cutting.
     axial_depth : a [m]
+    pieces : optional :class:`EngagementPieces`. The samples it names are engaged on the
+        union of their pieces, each with its own axial depth, instead of on one interval;
+        ``entry``/``exit`` are then their hull (first and last engaged angle) and
+        ``axial_depth`` their largest depth, for reports. The force model sums the pieces.
     """
 
     entry: np.ndarray
     exit: np.ndarray
     axial_depth: np.ndarray
+    pieces: EngagementPieces | None = None
 
     def __post_init__(self) -> None:
         arrays = [np.asarray(getattr(self, k), dtype=float) for k in ("entry", "exit")]
@@ -49,11 +122,53 @@ class Engagement:
         object.__setattr__(self, "exit", arrays[1])
         object.__setattr__(self, "axial_depth", depth)
         validate_engagement(self)
+        p = self.pieces
+        if p is not None:
+            if p.count == 0:
+                object.__setattr__(self, "pieces", None)
+            elif p.sample[0] < 0 or p.sample[-1] >= self.n:
+                raise InputError(f"engagement pieces name samples {int(p.sample[0])}.."
+                                 f"{int(p.sample[-1])} of an engagement of {self.n} samples")
 
     @property
     def n(self) -> int:
         """Number of path samples."""
         return int(self.entry.size)
+
+    @property
+    def pieced(self) -> np.ndarray:
+        """(n,) bool: samples engaged on pieces rather than on one interval."""
+        mask = np.zeros(self.n, dtype=bool)
+        if self.pieces is not None:
+            mask[self.pieces.sample] = True
+        return mask
+
+    def take(self, index: np.ndarray | slice) -> Engagement:
+        """The engagement of samples ``index`` (a slice or increasing indices), with their
+        pieces."""
+        idx = np.arange(self.n)[index]
+        pieces = None
+        if self.pieces is not None:
+            keep = np.zeros(self.n, dtype=bool)
+            keep[idx] = True
+            if idx.size > 1 and np.any(np.diff(idx) <= 0):
+                raise ValueError("Engagement.take needs increasing sample indices")
+            pieces = self.pieces.select(keep)
+        return Engagement(self.entry[idx], self.exit[idx], self.axial_depth[idx], pieces)
+
+    def without(self, drop: np.ndarray) -> Engagement:
+        """This engagement with the samples where ``drop`` holds not cutting (in air)."""
+        drop = np.asarray(drop, dtype=bool)
+        pieces = None if self.pieces is None else self.pieces.select(~drop, renumber=False)
+        return Engagement(np.where(drop, 0.0, self.entry), np.where(drop, 0.0, self.exit),
+                          self.axial_depth, pieces)
+
+    def hull_only(self) -> Engagement:
+        """Every sample on one interval: the pieced samples not cutting (entry = exit = 0).
+
+        With ``pieces.as_engagement()``, the two parts the force model sums."""
+        return Engagement(np.where(self.pieced, 0.0, self.entry),
+                          np.where(self.pieced, 0.0, self.exit), self.axial_depth)
 
 
 def validate_engagement(eng: Engagement, flute_length: float | None = None) -> None:

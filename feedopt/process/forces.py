@@ -176,6 +176,13 @@ def milling_forces(
     phi = np.asarray(angles, dtype=float).reshape(-1)
     if phi.size == 0 or not np.all(np.isfinite(phi)):
         raise InputError("angles must be a non-empty array of finite values [rad]")
+    if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
+        pieces = engagement.pieces
+        return _add_pieces(
+            _hull_part(engagement,
+                       lambda e, _i: milling_forces(tool, coeffs, e, phi, axial_slices), phi),
+            milling_forces(tool, coeffs, pieces.as_engagement(), phi, axial_slices),
+            pieces.sample)
 
     n, m = engagement.n, phi.size
     cutting = np.empty((n, m, 3))
@@ -250,6 +257,8 @@ def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) 
     """
     slices = _check_slices(axial_slices)
     validate_engagement(engagement, tool.flute_length)
+    if engagement.pieces is not None:
+        return _pieced_critical_angles(tool, engagement, slices)
     if tool.helix == 0.0:
         slices_used = 1  # every slice has lag 0
     else:
@@ -316,6 +325,14 @@ def milling_forces_at(
         )
     if phi.shape[1] == 0 or not np.all(np.isfinite(phi)):
         raise InputError("angles must be a non-empty array of finite values [rad]")
+    if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
+        pieces = engagement.pieces
+        return _add_pieces(
+            _hull_part(engagement, lambda e, i: milling_forces_at(tool, coeffs, e, phi[i],
+                                                                   axial_slices), np.array(phi)),
+            milling_forces_at(tool, coeffs, pieces.as_engagement(), phi[pieces.sample],
+                              axial_slices),
+            pieces.sample)
     m = phi.shape[1]
     out = np.empty((n, m, 8))
     lag = _slice_lags(tool, engagement.axial_depth[:, None], slices)  # (n, L)
@@ -391,6 +408,57 @@ def _sums_at(
             b[4] += tmp
     b *= da[:, None]
     return _project(b, coeffs, tool.diameter / 2.0)
+
+
+def _hull_part(engagement: Engagement, evaluate, angles: np.ndarray) -> ForceSplit:
+    """``evaluate`` (a force function of an engagement without pieces) on the samples of
+    ``engagement`` that are on one interval; zero force on the pieced samples. A chunk of
+    pieced samples only costs nothing here."""
+    plain = ~engagement.pieced
+    idx = np.flatnonzero(plain)
+    part = evaluate(engagement.hull_only().take(idx), idx)
+    if idx.size == engagement.n:
+        return ForceSplit(angles, part.cutting, part.edge, part.cutting_torque,
+                          part.edge_torque)
+    arrays = []
+    for name in ("cutting", "edge", "cutting_torque", "edge_torque"):
+        a = getattr(part, name)
+        full = np.zeros((engagement.n,) + a.shape[1:])
+        full[idx] = a
+        arrays.append(full)
+    return ForceSplit(angles, *arrays)
+
+
+def _add_pieces(base: ForceSplit, pieces: ForceSplit, sample: np.ndarray) -> ForceSplit:
+    """``base`` (the samples on one interval, pieced samples at zero force) plus the forces
+    of the pieces added to their samples (``sample`` non-decreasing)."""
+    starts = np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]])
+    owners = sample[starts]
+    out = []
+    for name in ("cutting", "edge", "cutting_torque", "edge_torque"):
+        arr = np.array(getattr(base, name))
+        arr[owners] += np.add.reduceat(getattr(pieces, name), starts, axis=0)
+        out.append(arr)
+    return ForceSplit(base.angles, *out)
+
+
+def _pieced_critical_angles(tool: Tool, engagement: Engagement, slices: int) -> np.ndarray:
+    """:func:`critical_angles` of an engagement with pieces: per sample the critical angles
+    of each of its pieces side by side, padded by repeating (shape (n, w K) for at most w
+    pieces per sample)."""
+    pieces = engagement.pieces
+    base = critical_angles(tool, engagement.hull_only(), slices)  # (n, K)
+    of_pieces = critical_angles(tool, pieces.as_engagement(), slices)  # (p, K)
+    n, k = base.shape
+    starts = np.flatnonzero(np.r_[True, pieces.sample[1:] != pieces.sample[:-1]])
+    counts = np.diff(np.r_[starts, pieces.count])
+    owners = pieces.sample[starts]
+    width = int(counts.max())
+    out = np.repeat(base[:, None, :], width, axis=1)  # (n, w, K)
+    out[owners] = of_pieces[starts][:, None, :]  # pad with the sample's first piece
+    rank = np.arange(pieces.count) - np.repeat(starts, counts)
+    out[pieces.sample, rank] = of_pieces
+    return out.reshape(n, width * k)
 
 
 def _check_slices(axial_slices: int) -> int:

@@ -18,7 +18,6 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.process.engagement import Engagement
 from feedopt.process.stock import FlatEndMill, StockEngagement, ZMap, sweep
 from feedopt.process.tool import Tool
 from feedopt.units import MM
@@ -73,7 +72,7 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
     before = build_stock(section, resolve)
     after = before.copy()
     found = sweep(after, FlatEndMill.from_tool(tool), samples.position,
-                  _feed_tangents(samples.tangent))
+                  _feed_tangents(samples.tangent), depth_step=section.depth_step_mm * MM)
     vertical = np.linalg.norm(samples.tangent[:, :2], axis=1) <= 1e-6
     if moves is not None:
         _check_program_contacts(found, moves, samples, source, vertical)
@@ -87,8 +86,8 @@ def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:
     e = found.engagement
     return dataclasses.replace(
         found,
-        engagement=Engagement(np.where(drop, 0.0, e.entry), np.where(drop, 0.0, e.exit),
-                              e.axial_depth),
+        engagement=e.without(drop),
+        intervals=found.intervals.select(~drop, renumber=False),
         in_air=found.in_air | drop,
         axial_depth=np.where(drop, 0.0, found.axial_depth),
         lateral=np.where(drop[:, None], np.nan, found.lateral))

@@ -121,7 +121,10 @@ def law_series_from_si(
 class EngagementSeries:
     """What the stock gave along the path, for the engagement figure (workpiece frame, mm).
 
-    s_mm, radial_mm, axial_mm, entry_deg, exit_deg : (n,) per sample (NaN angles in air)
+    s_mm, radial_mm, axial_mm, entry_deg, exit_deg : (n,) per sample (NaN angles in air);
+        the angles are the first and last engaged ones, radial_mm the radial depth of the
+        widest engaged interval, axial_mm the largest axial depth
+    intervals : (n,) number of separate engaged intervals (0 in air)
     xy_mm : (n, 2) tool tip in the workpiece frame
     stock_top_mm : (nx, ny) height of the stock after the run (a view, not a copy)
     extent_mm : (x0, x1, y0, y1) of the stock grid
@@ -135,6 +138,7 @@ class EngagementSeries:
     exit_deg: np.ndarray
     stock_top_mm: np.ndarray
     extent_mm: tuple[float, float, float, float]
+    intervals: np.ndarray
 
 
 def engagement_series(samples, material) -> EngagementSeries:
@@ -145,11 +149,12 @@ def engagement_series(samples, material) -> EngagementSeries:
     after = material.after
     nx, ny = after.shape
     x0, y0 = after.origin
+    count, widest = found.interval_summary()
     return EngagementSeries(
         s_mm=samples.s / MM,
         xy_mm=samples.position[:, :2] / MM,
-        radial_mm=np.where(air, 0.0, np.nan_to_num(found.lateral[:, 1] - found.lateral[:, 0]))
-        / MM,
+        radial_mm=np.where(air, 0.0, widest) / MM,
+        intervals=np.where(air, 0, count),
         axial_mm=found.axial_depth / MM,
         entry_deg=np.where(air, np.nan, np.degrees(found.engagement.entry)),
         exit_deg=np.where(air, np.nan, np.degrees(found.engagement.exit)),

@@ -164,10 +164,8 @@ def spindle_feed_bounds(
     omega = model.rpm * 2.0 * np.pi / 60.0
     v_t = np.empty(model.n)
     v_p = np.empty(model.n)
-    step = 8192
-    for start in range(0, model.n, step):
-        sl = slice(start, min(start + step, model.n))
-        idx = np.arange(sl.start, sl.stop)
+    for sl in model.sample_chunks(8192):
+        idx = np.arange(model.n)[sl]
         split, row = model.forces(idx)
         crit = critical_angles(model.tool, model.engagement_slice(sl), model.axial_slices)
         at = milling_forces_at(model.tool, model.coefficients, model.engagement_slice(sl), crit,

@@ -78,6 +78,10 @@ class DeflectionModel:
         Returns the split over the distinct rows and, per sample, the row it uses.
         """
         e = self.engagement
+        if e.pieces is not None:  # pieced samples: no shared rows to find
+            split = milling_forces(self.tool, self.coefficients, e.take(index), self.angles,
+                                   axial_slices=self.axial_slices)
+            return split, np.arange(index.size)
         rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index]], axis=1)
         unique, inverse = np.unique(rows, axis=0, return_inverse=True)
         split = milling_forces(
@@ -89,10 +93,33 @@ class DeflectionModel:
         )
         return split, inverse.ravel()
 
-    def engagement_slice(self, sl: slice) -> Engagement:
-        """The engagement of samples ``sl``."""
-        e = self.engagement
-        return Engagement(entry=e.entry[sl], exit=e.exit[sl], axial_depth=e.axial_depth[sl])
+    def engagement_slice(self, sl: slice | np.ndarray) -> Engagement:
+        """The engagement of samples ``sl`` (a slice or increasing indices)."""
+        return self.engagement.take(sl)
+
+    def sample_chunks(self, chunk: int) -> Iterator[slice | np.ndarray]:
+        """Samples in groups of at most ``chunk``: runs of single-interval samples (slices),
+        then the samples on several pieces grouped by their piece count, so that the
+        critical angles of a group (padded to its largest count) stay few, with at most
+        ``chunk`` / (pieces) samples per group (increasing index arrays)."""
+        pieced = self.engagement.pieced
+        if not pieced.any():
+            for start in range(0, self.n, chunk):
+                yield slice(start, min(start + chunk, self.n))
+            return
+        plain = np.flatnonzero(~pieced)
+        for start in range(0, plain.size, chunk):
+            yield plain[start : start + chunk]
+        counts = np.bincount(self.engagement.pieces.sample, minlength=self.n)
+        idx = np.flatnonzero(pieced)
+        idx = idx[np.argsort(counts[idx], kind="stable")]
+        start = 0
+        while start < idx.size:
+            # idx is sorted by count: the count at the end of the widest group bounds them all
+            width = max(1, chunk // int(counts[idx[min(idx.size, start + chunk) - 1]]))
+            group = idx[start : start + width]
+            yield np.sort(group)
+            start += group.size
 
     def _project(self, sl: slice, cutting: np.ndarray, edge: np.ndarray):
         """Deflection per unit feed per tooth ``a`` and at zero feed ``b`` from forces."""
@@ -120,9 +147,8 @@ class DeflectionModel:
         """
         n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
         chunk = max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
-        for start in range(0, self.n, chunk):
-            sl = slice(start, min(start + chunk, self.n))
-            idx = np.arange(sl.start, sl.stop)
+        for sl in self.sample_chunks(chunk):
+            idx = np.arange(self.n)[sl]
             split, row = self.forces(idx)
             a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])
             crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
@@ -173,7 +199,7 @@ class DeflectionModel:
             return self.frames[sl, :, 1]
         if self.mode == "direction":
             d = np.asarray(self.direction, dtype=float)
-            return np.broadcast_to(d / np.linalg.norm(d), (sl.stop - sl.start, 3))
+            return np.broadcast_to(d / np.linalg.norm(d), (self.frames[sl].shape[0], 3))
         raise ValueError(f"unknown limit mode {self.mode!r}; expected one of {LIMIT_MODES}")
 
     def deflection(self, feed: np.ndarray) -> np.ndarray:

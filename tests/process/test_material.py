@@ -91,19 +91,29 @@ def test_a_plunge_into_the_stock_is_refused_with_its_line(quick_scenario, tmp_pa
 
 
 def test_engagement_command_writes_one_row_per_sample(tmp_path, capsys):
-    out, png = tmp_path / "e.csv", tmp_path / "e.png"
+    out, png, pieces = tmp_path / "e.csv", tmp_path / "e.png", tmp_path / "p.csv"
     rc = main(["engagement", str(SCENARIOS / "linear_peripheral_stock.yaml"), "--spacing", "1",
-               "--out", str(out), "--plot", str(png)])
+               "--out", str(out), "--plot", str(png), "--intervals", str(pieces)])
     assert rc == 0 and png.stat().st_size > 0
     with open(out, newline="") as fh:
         rows = list(csv.reader(fh))
     assert rows[0] == ["s_mm", "x_mm", "y_mm", "z_mm", "line", "entry_deg", "exit_deg",
-                       "radial_depth_mm", "axial_depth_mm"]
+                       "radial_depth_mm", "axial_depth_mm", "intervals"]
     body = rows[1:]
     assert len(body) == 205  # 203.4 mm at 1 mm
     mid = body[100]
     radial = float(mid[7])
     assert abs(radial - 9.525 * 100 / 203.2) < 1.0
+    # one interval per engaged sample on this line, and it is the row's own
+    with open(pieces, newline="") as fh:
+        prow = list(csv.reader(fh))
+    assert prow[0] == ["sample", "s_mm", "entry_deg", "exit_deg", "axial_depth_mm"]
+    engaged = [k for k, r in enumerate(body) if r[9] not in ("", "0")]
+    assert [int(r[0]) for r in prow[1:]] == engaged
+    for r in prow[1:]:
+        row = body[int(r[0])]
+        assert float(r[2]) == pytest.approx(float(row[5]), abs=1e-6)
+        assert float(r[3]) == pytest.approx(float(row[6]), abs=1e-6)
     assert "cutting" in capsys.readouterr().out
 
 

@@ -527,13 +527,20 @@ def _arc_bound(phi, r_m, r_c, step):
 CORNERS = [(2.0, 12.0), (1.0, 15.0), (4.0, 20.0), (6.0, 11.0)]
 
 
-@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
-def test_inside_corner_arc_raises_engagement_as_two_circles_give(b_mm, r_mm):
+def _on_arc_middle(pos, legs, o):
+    polar = np.arctan2(pos[:, 1] - o[1], pos[:, 0] - o[0])
+    on_arc = np.zeros(len(pos), dtype=bool)
+    n1, n2 = len(legs[0][0]), len(legs[1][0])
+    on_arc[n1 : n1 + n2 - 2] = True
+    return on_arc & (polar > math.radians(30)) & (polar < math.radians(60))
+
+
+def inside_corner_cut(b_mm, r_mm, step=0.1 * MM):
     """A pocket wall y = Yw, x = Xw (material beyond them) with a corner rounded to r_m about
     O, cut at radial depth b: the tool runs +x along the wall (on its left), around O on an
     arc of radius r_c = r_m - R + b (clockwise, 90 deg) and down -y along the other wall.
-    In the middle third of the arc the exit angle is arccos(kappa), entry 0."""
-    b, step, z_floor = b_mm * MM, 0.1 * MM, 10 * MM
+    Returns (pos, tan, sweep result, middle third of the arc, r_c, r_m)."""
+    b, z_floor = b_mm * MM, 10 * MM
     r_c = r_mm * MM
     r_m = r_c + R - b
     xw, yw = 70.03 * MM, 60.07 * MM
@@ -550,27 +557,14 @@ def test_inside_corner_arc_raises_engagement_as_two_circles_give(b_mm, r_mm):
     )
     pos, tan = chain(*legs)
     res = sweep(stock, TOOL, pos, tan)
-    polar = np.arctan2(pos[:, 1] - o[1], pos[:, 0] - o[0])
-    on_arc = np.zeros(len(pos), dtype=bool)
-    n1, n2 = len(legs[0][0]), len(legs[1][0])
-    on_arc[n1 : n1 + n2 - 2] = True
-    middle = on_arc & (polar > math.radians(30)) & (polar < math.radians(60))
-    expected = math.acos(circle_engagement_cos(r_c, r_m))
-    assert not res.in_air[middle].any()
-    assert_angles(res.engagement.entry[middle], 0.0)
-    err = np.abs(res.engagement.exit[middle] - expected)
-    assert np.all(err <= _arc_bound(expected, r_m, r_c, step)), float(err.max())
-    straight = math.acos(1 - b / R)
-    assert expected > straight and res.engagement.exit[middle].mean() > straight  # a rise
+    return pos, tan, res, _on_arc_middle(pos, legs, o), r_c, r_m
 
 
-@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
-def test_outside_corner_arc_lowers_engagement_as_two_circles_give(b_mm, r_mm):
+def outside_corner_cut(b_mm, r_mm, step=0.1 * MM):
     """An island x < Xi, y < Yi with its corner rounded to r_m about O, cut at radial depth
     b: the tool runs +y along its side (on its left), around O counter-clockwise on an arc
-    of radius r_c = r_m + R - b and -x along its top. Middle third of the arc: exit
-    arccos(-kappa) < arccos(1 - b/R), entry 0."""
-    b, step, z_floor = b_mm * MM, 0.1 * MM, 10 * MM
+    of radius r_c = r_m + R - b and -x along its top. Returns as :func:`inside_corner_cut`."""
+    b, z_floor = b_mm * MM, 10 * MM
     r_m = r_mm * MM
     r_c = r_m + R - b
     xi, yi = 60.03 * MM, 50.07 * MM
@@ -587,17 +581,36 @@ def test_outside_corner_arc_lowers_engagement_as_two_circles_give(b_mm, r_mm):
     )
     pos, tan = chain(*legs)
     res = sweep(stock, TOOL, pos, tan)
-    polar = np.arctan2(pos[:, 1] - o[1], pos[:, 0] - o[0])
-    on_arc = np.zeros(len(pos), dtype=bool)
-    n1, n2 = len(legs[0][0]), len(legs[1][0])
-    on_arc[n1 : n1 + n2 - 2] = True
-    middle = on_arc & (polar > math.radians(30)) & (polar < math.radians(60))
+    return pos, tan, res, _on_arc_middle(pos, legs, o), r_c, r_m
+
+
+@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
+def test_inside_corner_arc_raises_engagement_as_two_circles_give(b_mm, r_mm):
+    """Inside corner (:func:`inside_corner_cut`): in the middle third of the arc the exit
+    angle is arccos(kappa), entry 0."""
+    step = 0.1 * MM
+    _, _, res, middle, r_c, r_m = inside_corner_cut(b_mm, r_mm, step)
+    expected = math.acos(circle_engagement_cos(r_c, r_m))
+    assert not res.in_air[middle].any()
+    assert_angles(res.engagement.entry[middle], 0.0)
+    err = np.abs(res.engagement.exit[middle] - expected)
+    assert np.all(err <= _arc_bound(expected, r_m, r_c, step)), float(err.max())
+    straight = math.acos(1 - b_mm * MM / R)
+    assert expected > straight and res.engagement.exit[middle].mean() > straight  # a rise
+
+
+@pytest.mark.parametrize(("b_mm", "r_mm"), CORNERS)
+def test_outside_corner_arc_lowers_engagement_as_two_circles_give(b_mm, r_mm):
+    """Outside corner (:func:`outside_corner_cut`): middle third of the arc: exit
+    arccos(-kappa) < arccos(1 - b/R), entry 0."""
+    step = 0.1 * MM
+    _, _, res, middle, r_c, r_m = outside_corner_cut(b_mm, r_mm, step)
     expected = math.acos(-circle_engagement_cos(r_c, r_m))
     assert not res.in_air[middle].any()
     assert_angles(res.engagement.entry[middle], 0.0)
     err = np.abs(res.engagement.exit[middle] - expected)
     assert np.all(err <= _arc_bound(expected, r_m, r_c, step)), float(err.max())
-    straight = math.acos(1 - b / R)
+    straight = math.acos(1 - b_mm * MM / R)
     assert expected < straight and res.engagement.exit[middle].mean() < straight  # a drop
 
 

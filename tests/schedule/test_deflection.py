@@ -122,3 +122,68 @@ def test_edge_forces_alone_exceeding_limit_is_a_clear_error() -> None:
     msg = str(e.value)
     assert "edge forces alone" in msg and "sample" in msg
     assert f"{zero.max() * 1e3:.4g} mm" in msg
+
+
+def _pieced_engagement(n: int, seed: int = 5) -> Engagement:
+    """Slots and side cuts, every third sample on 1-4 pieces of random depths."""
+    from feedopt.process.engagement import EngagementPieces
+
+    rng = np.random.default_rng(seed)
+    base = peripheral_engagement(rng.uniform(1e-3, 19.05e-3, n), 19.05e-3, 2.54e-3, "down")
+    sample, entry, exit_, depth = [], [], [], []
+    for i in range(0, n, 3):
+        k = 1 + i % 4
+        edges = np.sort(rng.uniform(0.0, np.pi, 2 * k))
+        for j in range(k):
+            sample.append(i)
+            entry.append(edges[2 * j])
+            exit_.append(edges[2 * j + 1])
+            depth.append(rng.uniform(0.5e-3, 4e-3))
+    sample, entry, exit_, depth = map(np.array, (sample, entry, exit_, depth))
+    hull_e, hull_x, hull_a = base.entry.copy(), base.exit.copy(), base.axial_depth.copy()
+    for i in np.unique(sample):
+        m = sample == i
+        hull_e[i], hull_x[i], hull_a[i] = entry[m].min(), exit_[m].max(), depth[m].max()
+    return Engagement(hull_e, hull_x, hull_a, EngagementPieces(sample, entry, exit_, depth))
+
+
+@pytest.mark.parametrize("mode", ["norm", "normal"])
+def test_pieced_samples_replay_and_bound_as_their_pieces_sum(monkeypatch, mode: str) -> None:
+    """Samples on several pieces (random depths) among single-interval ones, in small
+    chunks: the replay's maximum equals a brute-force maximum of the summed pieces on a
+    0.005 deg grid plus every piece's jump angles, and the bound is tight under replay."""
+    import feedopt.schedule.deflection as deflection
+
+    monkeypatch.setattr(deflection, "_CHUNK_ELEMENTS", 7 * 220)  # a few samples per chunk
+    n = 13
+    eng = _pieced_engagement(n)
+    model = _model(n=n, engagement=eng, mode=mode)
+    chunks = list(model.sample_chunks(7))
+    covered = np.concatenate([np.arange(n)[c] for c in chunks])
+    assert sorted(covered.tolist()) == list(range(n))
+    feed = np.linspace(1e-3, 6e-3, n)
+    got = model.deflection(feed)
+    fine = np.arange(0.0, np.pi, np.deg2rad(0.005))
+    for i in range(n):
+        m = eng.pieces.sample == i
+        parts = ([(eng.entry[i], eng.exit[i], eng.axial_depth[i])] if not m.any() else
+                 list(zip(eng.pieces.entry[m], eng.pieces.exit[m], eng.pieces.axial_depth[m],
+                          strict=True)))
+        crit = np.concatenate([critical_angles(model.tool, Engagement(
+            np.array([e]), np.array([x]), np.array([a])))[0] for e, x, a in parts])
+        angles = np.concatenate([fine, crit])
+        c = feed[i] * 60 / (model.tool.teeth * model.rpm)
+        f = sum(c * s.cutting[0] + s.edge[0] for s in (
+            milling_forces(model.tool, model.coefficients,
+                           Engagement(np.array([e]), np.array([x]), np.array([a])), angles)
+            for e, x, a in parts))
+        d = (model.compliance[i] @ model.frames[i] @ f.T).T
+        brute = (np.max(np.linalg.norm(d, axis=1)) if mode == "norm"
+                 else np.max(np.abs(d @ model.frames[i][:, 1])))
+        assert got[i] == pytest.approx(brute, rel=1e-6)
+    zero = model.deflection(np.zeros(n))
+    limit = 1.5 * zero.max()
+    bound = feed_bound(BoundInputs(model, limit, max_feed=1.0, dq_ds=np.ones((n, 6)),
+                                   joint_velocity_max=np.full(6, 10.0)))
+    cut = bound.active_names() == "deflection"
+    np.testing.assert_allclose(model.deflection(bound.v_max)[cut], limit, rtol=1e-7)
