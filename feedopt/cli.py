@@ -20,7 +20,8 @@ from feedopt import __version__, commands
 from feedopt.errors import InputError, Terminated
 
 # Order in --help; modules not listed here are appended alphabetically.
-_ORDER = ["run", "validate", "compare", "path", "forces", "calibrate", "robot"]
+_ORDER = ["run", "validate", "compare", "path", "forces", "calibrate", "calibrate-stiffness",
+          "robot"]
 
 
 def _command_modules() -> list[str]:
