@@ -329,6 +329,52 @@ class ExportSection(_Strict):
         return self
 
 
+class FitNote(_Strict):
+    """A scenario value chosen so that a result matches a reference (a fit, not a
+    prediction): shown with the run's results, with what the reference's own data suggest."""
+
+    field: str = Field(description="the fitted scenario field, dotted, with [k] for a list "
+                       "element (e.g. cut.axial_depth_mm, stock.box_mm[5])",
+                       pattern=r"^[a-z_]+(\.[a-z_]+)*(\[[0-9]+\])?$")
+    value: FiniteFloat = Field(description="the fitted value (a run where the field has "
+                               "another value says so)")
+    why: str = Field(description="what it was chosen to reproduce")
+    suggested: FiniteFloat | None = Field(None, description="the value the reference's own "
+                                          "data suggest")
+    suggested_source: str = Field("", description="where that value comes from")
+    result_at_suggested: str = Field("", description="the result at the suggested value")
+
+    def text(self, actual: float) -> str:
+        """One line for the console, summary.json and the report; ``actual`` is the field's
+        value in the run (a sweep or an edit may have changed it)."""
+        if abs(actual - self.value) > 1e-9 * max(1.0, abs(self.value)):
+            return (f"{self.field} = {actual:g} here, not its fitted {self.value:g} ({self.why}): "
+                    "these results are predictions at a changed value")
+        out = f"{self.field} = {self.value:g} is a FIT: {self.why}"
+        if self.suggested is not None:
+            out += (f". The reference's own data suggest {self.suggested:g}"
+                    + (f" ({self.suggested_source})" if self.suggested_source else ""))
+            if self.result_at_suggested:
+                out += f"; there: {self.result_at_suggested}"
+        return out
+
+
+def _field_value(model: BaseModel, path: str) -> object:
+    """The value of a dotted field path (optionally ending in [k]) of ``model``."""
+    name, _, index = path.partition("[")
+    value: object = model
+    for part in name.split("."):
+        if not isinstance(value, BaseModel) or part not in type(value).model_fields:
+            raise ValueError(f"no scenario field {name!r}")
+        value = getattr(value, part)
+    if index:
+        k = int(index.rstrip("]"))
+        if not isinstance(value, list) or k >= len(value):
+            raise ValueError(f"{name} has no element [{k}]")
+        value = value[k]
+    return value
+
+
 class Scenario(_Strict):
     """A complete planning job (see scenarios/*.yaml)."""
 
@@ -349,6 +395,24 @@ class Scenario(_Strict):
     limits: LimitsSection = LimitsSection()
     schedule: ScheduleSection = ScheduleSection()
     export: ExportSection = ExportSection()
+    fits: list[FitNote] = Field(default_factory=list, description="values chosen to reproduce "
+                                "a reference result (fits, not predictions): printed and "
+                                "reported with the results")
+
+    @model_validator(mode="after")
+    def _fits_match(self) -> Scenario:
+        for k, fit in enumerate(self.fits):
+            try:
+                value = _field_value(self, fit.field)
+            except ValueError as exc:
+                raise ValueError(f"fits[{k}].field: {exc}") from None
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                raise ValueError(f"fits[{k}].field: {fit.field} is not a number")
+        return self
+
+    def fit_notes(self) -> list[str]:
+        """The fit notes of this scenario, each against the field's value here."""
+        return [fit.text(float(_field_value(self, fit.field))) for fit in self.fits]
 
     @model_validator(mode="before")
     @classmethod

@@ -188,3 +188,29 @@ def test_warnings_for_max_feed_below_nominal_and_repeated_laws(tmp_path) -> None
     warnings = scenario_warnings(load_scenario(p)[0])
     assert any("max_mm_s = 3 mm/s is below feed.nominal_mm_s = 4.23" in w for w in warnings)
     assert any("jerk more than once" in w for w in warnings)
+
+
+def test_fit_notes_label_the_fitted_value_and_say_when_it_changed(quick_scenario):
+    """A scenario value chosen to reproduce the thesis is labelled a fit, with the value the
+    thesis's data suggest; a run at another value says its results are predictions there."""
+    sc, _ = load_scenario(quick_scenario("triangle_slot"))
+    (note,) = sc.fit_notes()
+    assert note.startswith("cut.axial_depth_mm = 1.5 is a FIT")
+    assert "2.54" in note and "0.686 mm" in note
+    sc, _ = load_scenario(quick_scenario("triangle_slot", cut__axial_depth_mm=2.54))
+    (note,) = sc.fit_notes()
+    assert note.startswith("cut.axial_depth_mm = 2.54 here, not its fitted 1.5")
+    sc, _ = load_scenario(quick_scenario("linear_peripheral_stock"))
+    assert sc.fit_notes()[0].startswith("stock.box_mm[5] = 1.5 is a FIT")
+
+
+@pytest.mark.parametrize(("field", "why"), [("cut.depth_mm", "no scenario field 'cut.depth_mm'"),
+                                           ("stock.box_mm[9]", "has no element"),
+                                           ("cut.type", "is not a number")])
+def test_fit_notes_must_name_a_numeric_field(quick_scenario, field, why):
+    bad = quick_scenario("triangle_slot_stock" if "box" in field else "triangle_slot")
+    doc = yaml.safe_load(bad.read_text())
+    doc["fits"] = [{"field": field, "value": 1.5, "why": "test"}]
+    bad.write_text(yaml.safe_dump(doc))
+    with pytest.raises(InputError, match=why.replace("[", r"\[")):
+        load_scenario(bad)

@@ -60,6 +60,9 @@ def _notes_lines(data: ReportData) -> list[tuple[str, str]]:
     return out
 
 
+_FITS_TITLE = "Fitted inputs: these results reproduce a reference by construction"
+
+
 def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     """Markdown text, HTML text and ``{png file name: bytes}`` of the report (nothing written)."""
     pngs: dict[str, bytes] = {}
@@ -76,7 +79,10 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     warnings = run_warnings(data.summary)
     inputs = input_rows(data.summary)
 
+    fits = list(data.summary.get("scenario", {}).get("fits", []))
     md = [f"# {title}", ""]
+    if fits:
+        md += [f"## {_FITS_TITLE}", "", *(f"- {f}" for f in fits), ""]
     if warnings:
         md += ["## Warnings", "", *(f"- {w}" for w in warnings), ""]
     if inputs:
@@ -100,6 +106,9 @@ def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
         "</head><body>",
         f"<h1>{esc(title)}</h1>",
     ]
+    if fits:
+        h += [f"<h2>{_FITS_TITLE}</h2>", '<ul class="warnings">',
+              *(f"<li>{esc(f)}</li>" for f in fits), "</ul>"]
     if warnings:
         h += ["<h2>Warnings</h2>", '<ul class="warnings">',
               *(f"<li>{esc(w)}</li>" for w in warnings), "</ul>"]

@@ -85,6 +85,7 @@ def scenario_summary(prepared: Prepared) -> dict:
     return {
         "name": sc.name,
         "description": sc.description,
+        "fits": sc.fit_notes(),
         "robot": {"name": robot.name, "directory": sc.robot.directory,
                   "stiffness_source": robot.sources.get("stiffness"),
                   "tool_source": robot.sources.get("tool")},

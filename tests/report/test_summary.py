@@ -152,8 +152,11 @@ def test_report_shows_warnings_inputs_and_ramps(report_data, full_summary, monke
     data = replace(report_data, summary=full_summary)
     md, page, _ = render_report(data)
     heads = [ln for ln in md.splitlines() if ln.startswith("#")]
-    assert heads[:4] == ["# feedopt report: triangle_slot <test>", "## Warnings", "## Inputs",
-                         "## Comparison of timing laws"]
+    assert heads[:5] == ["# feedopt report: triangle_slot <test>",
+                         "## Fitted inputs: these results reproduce a reference by construction",
+                         "## Warnings", "## Inputs", "## Comparison of timing laws"]
+    assert "- cut.axial_depth_mm = 1.5 is a FIT" in md  # the scenario's fit note, first
+    assert page.index("<h2>Fitted inputs") < page.index("<h2>Warnings</h2>")
     assert "- robot kuka_kr500_3: joint stiffness <placeholder> & not calibrated" in md
     assert ("| joint stiffness               | dpp: 2.86, 2.36, 1.67, 0.24, 0.16, 0.14 MNm/rad"
             in md)
