@@ -239,16 +239,24 @@ class FeedSection(_Strict):
 
 class DeflectionSection(_Strict):
     limit_mm: PositiveFloat = Field(description="deflection limit (mm)")
-    mode: Literal["norm", "normal", "direction"] = Field("norm", description="limit the norm "
-        "of the TCP deflection (thesis), its component along the in-plane surface normal, or "
-        "along a given direction")
+    mode: Literal["norm", "normal", "direction", "residual"] = Field("norm", description=(
+        "limit the norm of the TCP deflection (thesis), its component along the in-plane "
+        "surface normal, along a given direction, or (residual) what is left of it when the "
+        "commanded path is offset by the mean deflection of a revolution: max |d(phi) - "
+        "mean d| (compensation, feedopt.schedule.compensation)"))
     direction: Vector3 | None = Field(None, description="base-frame direction for mode "
                                       "'direction'")
+    compensation_cap_mm: PositiveFloat | None = Field(None, description="mode residual: "
+                                                      "largest compensating offset |mean d| "
+                                                      "(mm); default none")
 
     @model_validator(mode="after")
     def _direction(self) -> DeflectionSection:
         if self.mode == "direction" and self.direction is None:
             raise ValueError("mode 'direction' needs 'direction' [x, y, z]")
+        if self.compensation_cap_mm is not None and self.mode != "residual":
+            raise ValueError("compensation_cap_mm applies to mode 'residual' (compensation) "
+                             f"only; this scenario's mode is '{self.mode}'")
         if self.direction is not None and sum(x * x for x in self.direction) < 1e-24:
             raise ValueError("direction must be a non-zero vector")
         return self

@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.process.forces import critical_angles, milling_forces_at
+from feedopt.process.forces import critical_angles
 from feedopt.registry import add_unique
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.units import MM
@@ -46,6 +46,7 @@ class BoundInputs:
     torque_max: float = np.inf  # spindle [N m]
     power_max: float = np.inf  # spindle [W]
     positions: np.ndarray | None = None  # (n, 3) base frame [m], for messages
+    compensation_cap: float = np.inf  # largest compensated offset (residual mode) [m]
     cache: dict = field(default_factory=dict)
 
     @property
@@ -168,8 +169,7 @@ def spindle_feed_bounds(
         idx = np.arange(model.n)[sl]
         split, row = model.forces(idx)
         crit = critical_angles(model.tool, model.engagement_slice(sl), model.axial_slices)
-        at = milling_forces_at(model.tool, model.coefficients, model.engagement_slice(sl), crit,
-                               axial_slices=model.axial_slices)
+        at = model.forces_at(sl, crit)
         tc = np.concatenate([split.cutting_torque[row], at.cutting_torque], axis=1)
         te = np.concatenate([split.edge_torque[row], at.edge_torque], axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -279,6 +279,15 @@ def register_constraint(name: str, factory: Callable[[], FeedConstraint]) -> Non
 for _cls in (DeflectionConstraint, MaxFeedConstraint, SpindleTorqueConstraint,
              SpindlePowerConstraint, JointVelocityConstraint):
     register_constraint(_cls.name, _cls)
+
+
+def _compensation_cap() -> FeedConstraint:
+    from feedopt.schedule.compensation import CompensationCapConstraint
+
+    return CompensationCapConstraint()
+
+
+register_constraint("compensation_cap", _compensation_cap)
 
 
 def feed_bound(inputs: BoundInputs,

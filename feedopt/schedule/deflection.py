@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedopt.process.averages import average_forces
 from feedopt.process.forces import (
     CuttingCoefficients,
     Engagement,
@@ -26,7 +27,7 @@ from feedopt.process.forces import (
     milling_forces_at,
 )
 
-LIMIT_MODES = ("norm", "normal", "direction")
+LIMIT_MODES = ("norm", "normal", "direction", "residual")
 
 # Samples per chunk: 4096 samples x 360 angles x 3 x 8 B = 35 MB per array. With more angles
 # per sample (a fine angle step, many slices) the chunk shrinks so each array stays that size.
@@ -47,7 +48,9 @@ class DeflectionModel:
     compliance : (n, 3, 3) translational compliance at the TCP [m/N].
     rpm : spindle speed [rev/min]; feed v = c N rpm / 60.
     mode : ``"norm"`` (|d|, thesis), ``"normal"`` (component along the in-plane surface
-        normal, the force-model y axis) or ``"direction"`` (component along ``direction``).
+        normal, the force-model y axis), ``"direction"`` (component along ``direction``) or
+        ``"residual"`` (|d(phi) - mean d|: what is left when the commanded path is offset by
+        the mean deflection of the revolution, :meth:`mean_terms`).
     direction : (3,) unit vector in the base frame for ``mode == "direction"``.
     axial_slices : number of axial slices of the force model.
     """
@@ -128,13 +131,36 @@ class DeflectionModel:
         b = np.einsum("kij,kmj->kmi", cr, edge, optimize=True)
         if self.mode == "norm":
             return a, b
+        if self.mode == "residual":  # d(phi) - mean d: still affine in c
+            a_mean, b_mean = self.mean_terms(sl)
+            return a - a_mean[:, None, :], b - b_mean[:, None, :]
         u = self._directions(sl)
         return np.einsum("kmi,ki->km", a, u), np.einsum("kmi,ki->km", b, u)
 
-    def at_angles(self, sl: slice, angles: np.ndarray):
+    def forces_at(self, sl: slice | np.ndarray, angles: np.ndarray) -> ForceSplit:
+        """Force split of samples ``sl`` at per-sample rotation angles (k, j).
+
+        Samples whose engagement and angles are the same (a slot's critical angles, the
+        refinement windows of samples whose worst angle is the same grid angle) are
+        evaluated once: the forces depend on them only, not on the pose. Results are those
+        of the per-sample evaluation exactly (each row is computed alone).
+        """
+        eng = self.engagement_slice(sl)
+        if eng.pieces is None and eng.n > 1:
+            first, row = _same_rows(np.column_stack([eng.entry, eng.exit, eng.axial_depth,
+                                                     angles]))
+            if first.size <= eng.n // 2:
+                split = milling_forces_at(
+                    self.tool, self.coefficients, eng.take(first), np.asarray(angles)[first],
+                    axial_slices=self.axial_slices)
+                return ForceSplit(np.asarray(angles), split.cutting[row], split.edge[row],
+                                  split.cutting_torque[row], split.edge_torque[row])
+        return milling_forces_at(self.tool, self.coefficients, eng, angles,
+                                 axial_slices=self.axial_slices)
+
+    def at_angles(self, sl: slice | np.ndarray, angles: np.ndarray):
         """``a``, ``b`` of samples ``sl`` at per-sample rotation angles (k, j)."""
-        split = milling_forces_at(self.tool, self.coefficients, self.engagement_slice(sl), angles,
-                                  axial_slices=self.axial_slices)
+        split = self.forces_at(sl, angles)
         return self._project(sl, split.cutting, split.edge)
 
     def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray, np.ndarray]]:
@@ -194,6 +220,38 @@ class DeflectionModel:
                                  vw.max(axis=1) if worst == "max" else vw.min(axis=1), vv])
         return stack.max(axis=1) if worst == "max" else stack.min(axis=1)
 
+    def mean_terms(self, sl: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean deflection over a revolution, ``mean d = c a_mean + b_mean`` (k, 3) [m/m, m],
+        base frame, for samples ``sl``.
+
+        From the closed-form average forces of Altintas [39] (thesis Eq. 3.24-3.25,
+        :func:`feedopt.process.averages.average_forces`), summed over a sample's pieces:
+        the exact mean of the slice model (over a whole revolution the helix lag does not
+        matter), so ``d(phi) - mean d`` averages to zero over the revolution.
+        """
+        eng = self.engagement_slice(sl)
+        hull = eng.hull_only()
+        edge = average_forces(self.tool, self.coefficients, hull.entry, hull.exit,
+                              hull.axial_depth, 0.0)
+        cut = average_forces(self.tool, self.coefficients, hull.entry, hull.exit,
+                             hull.axial_depth, 1.0) - edge
+        if eng.pieces is not None:
+            p = eng.pieces
+            pe = average_forces(self.tool, self.coefficients, p.entry, p.exit, p.axial_depth, 0.0)
+            pc = average_forces(self.tool, self.coefficients, p.entry, p.exit, p.axial_depth,
+                                1.0) - pe
+            np.add.at(edge, p.sample, pe)
+            np.add.at(cut, p.sample, pc)
+        cr = self.compliance[sl] @ self.frames[sl]
+        return np.einsum("kij,kj->ki", cr, cut), np.einsum("kij,kj->ki", cr, edge)
+
+    def mean_deflection(self, feed: np.ndarray) -> np.ndarray:
+        """Mean deflection over the revolution at path feeds ``feed`` (n,) [m/s]: (n, 3) [m],
+        base frame: the offset that compensation subtracts from the commanded path."""
+        c = np.asarray(feed, dtype=float) / self.feed_per_unit_c
+        a, b = self.mean_terms(slice(0, self.n))
+        return c[:, None] * a + b
+
     def _directions(self, sl: slice) -> np.ndarray:
         if self.mode == "normal":
             return self.frames[sl, :, 1]
@@ -224,6 +282,28 @@ class DeflectionModel:
                     sl, angles, magnitude(c, a, b), "max",
                     lambda s_, w, c=c: magnitude(c, *self.at_angles(s_, w)))
         return out.reshape(np.shape(feed))
+
+
+_HASH_WEIGHTS = np.random.default_rng(20261202).uniform(0.5, 1.5, 4096)
+
+
+def _same_rows(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of ``key`` (k, w) that are equal: the first index of each distinct row
+    (increasing) and, per row, which of those it equals. Grouped by a random projection of
+    the rows, then checked exactly; if the projection confused two different rows (never
+    seen), every row is its own."""
+    k, w = key.shape
+    if w > _HASH_WEIGHTS.size:
+        return np.arange(k), np.arange(k)
+    h = key @ _HASH_WEIGHTS[:w]
+    _, first, inverse = np.unique(h, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    first, row = first[order], rank[inverse.reshape(-1)]
+    if not np.array_equal(key, key[first[row]]):
+        return np.arange(k), np.arange(k)
+    return first, row
 
 
 def feed_frames(tangent: np.ndarray, tool_axis: np.ndarray) -> np.ndarray:

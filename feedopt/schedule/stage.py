@@ -106,6 +106,8 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         model=model, limit=limit, max_feed=max_feed, dq_ds=dq_ds, joint_velocity_max=qd_max,
         torque_max=limits.spindle_torque_nm, power_max=limits.spindle_power_w,
         positions=placement.positions,
+        compensation_cap=(np.inf if defl.compensation_cap_mm is None
+                          else defl.compensation_cap_mm * MM),
     ))
     problem = ScheduleProblem(
         s=samples.s,
