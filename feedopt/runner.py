@@ -27,6 +27,7 @@ from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
 from feedopt.process.program import apply_program
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
+from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
 from feedopt.report.data import engagement_series
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
@@ -231,9 +232,10 @@ def prepare(
     x_axes = None
     if scenario.robot.fix_tool_rotation:
         x_axes = np.broadcast_to(placement.transform[:3, 0], placement.positions.shape).copy()
-    along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
-                             np.deg2rad(scenario.robot.start_configuration_deg),
-                             scenario.robot.stiffness, x_axes=x_axes)
+    with progress_bar(progress, "[3/5] robot IK") as bar:
+        along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
+                                 np.deg2rad(scenario.robot.start_configuration_deg),
+                                 scenario.robot.stiffness, x_axes=x_axes, progress=bar)
     warnings += along.warnings
     blockers = early_blockers(robot, path)
     times["robot"] = time.perf_counter() - t0
@@ -308,6 +310,7 @@ class RunResult:
     laws: dict[str, LawResult]
     summary: dict
     table: str
+    profile: RunProfile | None = None
 
 
 def _monotone_within_path(trajectory: Trajectory, length: float) -> bool:
@@ -323,8 +326,14 @@ def write_outputs(
     out_dir: Path,
     export_unverified: bool = False,
     report: bool = True,
+    times: dict[tuple[str, str], float] | None = None,
 ) -> dict:
-    """Every registered exporter's files, summary.json and the report into ``out_dir``."""
+    """Every registered exporter's files, summary.json and the report into ``out_dir``.
+
+    ``times`` (optional) receives the wall time [s] of ``("export", law)`` (controller
+    samples and every exporter of the law) and ``("report", "")``.
+    """
+    times = {} if times is None else times
     from feedopt.export.job import ExportJob, controller_samples, run_exporters
     from feedopt.report.run import law_series, write_run_report
     from feedopt.report.summary import law_summary, scenario_summary
@@ -355,6 +364,7 @@ def write_outputs(
         summary["laws"][law] = entry
         if not drawable:
             continue
+        t0 = time.perf_counter()
         samples = controller_samples(res.trajectory, cycle, prepared.q_of_s, problem.length)
         if exported:
             spec = LAWS.get(law)
@@ -369,16 +379,35 @@ def write_outputs(
                 blockers=prepared.export_blockers,
             )
             entry.update(run_exporters(job, out_dir))
+        times[("export", law)] = time.perf_counter() - t0
         if report:
             series.append(law_series(law, problem.s, ver, samples))
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     if report:
+        t0 = time.perf_counter()
         material = prepared.process.material
         engagement = (None if material is None
                       else engagement_series(prepared.samples, material))
         write_run_report(out_dir, sc.name, summary, prepared.positions, prepared.samples.segment,
                          problem, series, sc.deflection.limit_mm, engagement)
+        times[("report", "")] = time.perf_counter() - t0
     return summary
+
+
+def _profile(prepared: Prepared, results: dict[str, LawResult],
+             output_times: dict[tuple[str, str], float], total: float) -> RunProfile:
+    """The run's stage and per-law times in pipeline order (RunProfile)."""
+    rows = [StageTiming(stage, t) for stage, t in prepared.stage_times.items()]
+    for law, res in results.items():
+        rows += [StageTiming("plan", res.planning_time, law),
+                 StageTiming("verify", res.verification_time, law)]
+        if ("export", law) in output_times:
+            rows.append(StageTiming("export", output_times[("export", law)], law))
+    if ("report", "") in output_times:
+        rows.append(StageTiming("report", output_times[("report", "")]))
+    rows.append(StageTiming("other", max(0.0, total - sum(r.seconds for r in rows))))
+    return RunProfile(rows=tuple(rows), total_s=total, peak_memory_bytes=peak_memory_bytes(),
+                      samples=int(prepared.samples.s.size))
 
 
 def run_scenario(
@@ -399,6 +428,7 @@ def run_scenario(
     """
     from feedopt.report.tables import comparison_table
 
+    t_start = time.perf_counter()
     scenario, base_dir = load_scenario(scenario_path)
     laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
@@ -409,13 +439,17 @@ def run_scenario(
         if not results:
             raise InputError("no timing law planned this path: " + "; ".join(
                 prepared.declined.values()) + " — add convex or jerk to schedule.laws / --laws")
-        summary = write_outputs(prepared, results, dest.staging, export_unverified, report)
+        output_times: dict[tuple[str, str], float] = {}
+        summary = write_outputs(prepared, results, dest.staging, export_unverified, report,
+                                output_times)
         outdir.commit(dest)
     finally:
         if dest.staging.exists():
             outdir.discard(dest)
     return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,
-                     table=comparison_table([summary], [scenario.name]))
+                     table=comparison_table([summary], [scenario.name]),
+                     profile=_profile(prepared, results, output_times,
+                                      time.perf_counter() - t_start))
 
 
 def validate_scenario(scenario_path: str | Path) -> str:

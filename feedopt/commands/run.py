@@ -31,6 +31,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                    help="also export laws that failed verification (marked in the files)")
     p.add_argument("--spacing-mm", type=float, help="override the path sample spacing (mm)")
     p.add_argument("--no-report", action="store_true", help="skip report.md/report.html")
+    p.add_argument("--profile", action="store_true",
+                   help="also print the wall time of every stage and of every law's planning, "
+                   "verification and export, and the peak memory (one table)")
     p.set_defaults(func=run)
 
 
@@ -61,6 +64,9 @@ def run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     print(result.table)
+    if args.profile and result.profile is not None:
+        print("\nprofile (wall time per stage and law):\n")
+        print(result.profile.table())
     print(f"\nwrote {result.out_dir}")
     return exit_code(result)
 

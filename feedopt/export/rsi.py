@@ -43,6 +43,9 @@ COLUMNS: tuple[str, ...] = (
     "deflection_mm",
 )
 
+# Data rows formatted and written per block by write_rsi_csv.
+_ROWS_PER_BLOCK = 1 << 14
+
 _HEADER_DOC = (
     "feedopt RSI trajectory: one row per RSI cycle.",
     "t_s: time [s] from the start of the cut.",
@@ -203,10 +206,16 @@ def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = (
         ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
         lines.extend(f"# {part}" for part in ascii_text.splitlines() or [""])
     lines.append(",".join(COLUMNS))
-    # tolist() gives Python floats, whose repr is the shortest string that round-trips.
-    lines.extend(",".join(map(repr, row)) for row in m.tolist())
+    # tolist() gives Python floats, whose repr ("%r") is the shortest string that round-trips;
+    # one %-format per row and blocks of rows written as they are formatted (the file is
+    # never held in memory: 11 h at 4 ms is 2.5 GB).
+    row_format = ",".join(["%r"] * len(COLUMNS)).__mod__
     path = Path(path)
-    path.write_text("\n".join(lines) + "\n", encoding="ascii")
+    with path.open("w", encoding="ascii", newline="\n") as f:
+        f.write("\n".join(lines) + "\n")
+        for start in range(0, m.shape[0], _ROWS_PER_BLOCK):
+            rows = m[start:start + _ROWS_PER_BLOCK].tolist()
+            f.write("\n".join(map(row_format, map(tuple, rows))) + "\n")
     return path
 
 

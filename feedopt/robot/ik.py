@@ -6,18 +6,29 @@ warm-started from the previous sample's solution, so the solution closest to the
 given, rotation about it free) take the minimum-norm joint step, which keeps the redundant
 rotation as close as possible to the previous sample.
 
+The warm-started sweep is sequential by nature (each seed is the previous solutions), so on
+paths sampled finer than :attr:`IKOptions.sweep_spacing` with a fixed tool axis (or a 6-DoF
+task) it visits every k-th sample only; the samples between start from a cubic spline
+through the swept ones and are solved by the batched refinement with everything else (numpy
+over samples, pinocchio once per configuration and pass, only on the samples still above the
+tolerance). A refined sample that moves more than a branch flip from its seed sends the whole
+path back to the sample-by-sample sweep.
+
 After the sweep the joint path is checked; the earliest offending sample is reported with its
 index and pose: unreachable (no convergence), joint-limit violation, joint jump (branch flip)
 and near-singular pose (condition number of the scaled TCP Jacobian).
 
 :func:`solve_path_ik` runs the phases in order: :func:`_validate_task` (targets per sample),
-:func:`_sweep` (per sample: :func:`_seed`, then :func:`_damped_newton_step` to a coarse
-tolerance), :func:`_refine` (batched Newton to the final tolerance), :func:`_check_converged`
-and :func:`_check_path` (limits, jumps, singularities). Its tunables are :class:`IKOptions`.
+:func:`_sweep` (per swept sample: :func:`_seed`, then :func:`_damped_newton_step` to a coarse
+tolerance), :func:`_seeds_between` (spline seeds of the samples the sweep skipped),
+:func:`_refine` (batched Newton to the final tolerance, by chunks of samples),
+:func:`_check_converged` and :func:`_check_path` (limits, jumps, singularities). Its tunables
+are :class:`IKOptions`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -44,12 +55,16 @@ class PathIK:
     axis_error : (n,) array
         Remaining orientation error [rad]: angle between the tool axes (5-DoF task) or of the
         full rotation error (6-DoF task).
+    jacobian : (n, 6, dof) array or None
+        TCP Jacobians at ``q`` (LOCAL_WORLD_ALIGNED, as :func:`feedopt.robot.model.tcp_jacobians`
+        computes them), only when :func:`solve_path_ik` is asked for them.
     """
 
     q: np.ndarray
     condition_number: np.ndarray
     position_error: np.ndarray
     axis_error: np.ndarray
+    jacobian: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -79,6 +94,11 @@ class IKOptions:
         ``condition_length`` [m]); above it the pose counts as near-singular.
     condition_length : float
         Length scale [m] of the angular Jacobian rows in the condition number.
+    sweep_spacing : float
+        The sequential sweep visits samples about this far apart [m]: every k-th sample,
+        k = floor(sweep_spacing / median sample spacing) (every sample on paths sampled at
+        this spacing or coarser). The samples between are seeded by a cubic spline through
+        the swept ones, by chord length, and solved by the batched refinement.
     """
 
     tol_position: float = 1e-10
@@ -94,6 +114,7 @@ class IKOptions:
     max_joint_step: float = float(np.deg2rad(5.0))
     max_condition: float = 100.0
     condition_length: float = 1.0
+    sweep_spacing: float = 1e-4
 
     def __post_init__(self) -> None:
         for name in ("max_iterations", "max_iterations_first"):
@@ -147,14 +168,25 @@ class _TcpKinematics:
         jac = pin.getFrameJacobian(self.model, self.data, self.fid, pin.LOCAL_WORLD_ALIGNED)
         return placement.rotation, placement.translation, jac
 
-    def evaluate_path(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rotations (n, 3, 3), positions (n, 3), Jacobians (n, 6, dof) of configurations q."""
-        n, dof = q.shape
-        rot, pos, jac = np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 6, dof))
-        for k in range(n):
-            rot[k], pos[k], jac[k] = self.evaluate(q[k])
-        return rot, pos, jac
+    def evaluate_rows(
+        self, q: np.ndarray, rows: np.ndarray, pose: np.ndarray, jac: np.ndarray
+    ) -> None:
+        """TCP poses (4, 4) and Jacobians (6, dof) of the configurations ``q[rows]``, written
+        to ``pose[rows]`` and ``jac[rows]`` (one pinocchio call per configuration: the frame
+        Jacobian, which places the frame too; the Jacobian is bit for bit
+        :func:`feedopt.robot.model.tcp_jacobians`'s)."""
+        model, data, fid = self.model, self.data, self.fid
+        frame_jacobian, world_aligned, placements = (pin.computeFrameJacobian,
+                                                     pin.LOCAL_WORLD_ALIGNED, data.oMf)
+        for k in rows.tolist():
+            jac[k] = frame_jacobian(model, data, q[k], fid, world_aligned)
+            pose[k] = placements[fid].homogeneous
 
+
+# Samples per chunk of the batched refinement (bounds its (chunk, 6, dof) work arrays), and
+# how often the sequential sweep reports progress.
+_CHUNK = 1 << 15
+_PROGRESS_EVERY = 1 << 12
 
 # --------------------------------------------------------------------------- geometry helpers
 
@@ -367,21 +399,67 @@ def _solve_sample(
     return q, False, ep_norm, ea
 
 
-def _sweep(kin: _TcpKinematics, task: _Task, options: IKOptions) -> np.ndarray:
-    """Sequential sweep (n, dof): seed from the previous samples, Newton until the coarse
-    tolerance (usually one step), so that every sample tracks the previous one's branch."""
+def _sweep(
+    kin: _TcpKinematics, task: _Task, options: IKOptions, visit: np.ndarray | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> np.ndarray:
+    """Sequential sweep (m, dof) over the samples ``visit`` (default: all), in order: seed
+    from the previously visited samples, Newton until the coarse tolerance (usually one
+    step), so that every sample tracks the previous one's branch. ``progress(m_done)``."""
+    visit = np.arange(task.n) if visit is None else visit
     dof = task.q_start.shape[0]
-    q_out = np.empty((task.n, dof))
+    q_out = np.empty((visit.size, dof))
     work = (np.empty((task.size, dof)), np.empty(task.size), np.eye(task.size) * options.damping)
-    for k in range(task.n):
-        iterations = options.max_iterations_first if k == 0 else options.max_iterations
+    for j, k in enumerate(visit.tolist()):
+        iterations = options.max_iterations_first if j == 0 else options.max_iterations
         q, converged, ep_norm, ea = _solve_sample(
-            kin, task, k, _seed(q_out, k, task.q_start), iterations, options, work
+            kin, task, k, _seed(q_out, j, task.q_start), iterations, options, work
         )
-        q_out[k] = q
+        q_out[j] = q
         if not converged or not np.all(np.isfinite(q)):
             raise _unreachable(task, k, ep_norm, ea)
+        if progress is not None and (j + 1) % _PROGRESS_EVERY == 0:
+            progress(j + 1)
     return q_out
+
+
+def _sweep_stride(task: _Task, options: IKOptions) -> int:
+    """Every how many samples the sweep visits one (1: all; see IKOptions.sweep_spacing).
+
+    Always 1 for a 5-DoF task whose tool axis turns along the path: there the redundant
+    rotation the warm-started minimum-norm steps settle on depends on the sweep's step (by
+    O(step^2), 2e-5 rad at 0.1 mm on a helix whose axis tilts by 20 deg), so only the
+    sample-by-sample sweep gives the same joints. With a fixed tool axis (every feedopt run)
+    or a 6-DoF task the solution does not depend on it (agreement within the tolerances,
+    tests/robot/test_ik_batch.py)."""
+    if task.n < 3:
+        return 1
+    if not task.six_dof and np.ptp(task.tool_axes, axis=0).max() > 1e-12:
+        return 1
+    d = np.diff(task.positions, axis=0)
+    chord = np.sqrt(np.einsum("ij,ij->i", d, d))
+    h = float(np.median(chord))
+    if not (h > 0 and np.all(chord > 0)):  # repeated positions: no chord-length parameter
+        return 1
+    return max(1, int(options.sweep_spacing / h * (1 + 1e-9)))
+
+
+def _swept_samples(n: int, stride: int) -> np.ndarray:
+    """Indices the sweep visits: every ``stride``-th sample and the last one."""
+    visit = np.arange(0, n, stride)
+    return visit if visit[-1] == n - 1 else np.append(visit, n - 1)
+
+
+def _seeds_between(task: _Task, visit: np.ndarray, q_swept: np.ndarray) -> np.ndarray:
+    """Seeds (n, dof) of every sample: the swept solutions at ``visit``, a not-a-knot cubic
+    spline through them (chord-length parameter) in between."""
+    from scipy.interpolate import CubicSpline
+
+    d = np.diff(task.positions, axis=0)
+    u = np.concatenate([[0.0], np.cumsum(np.sqrt(np.einsum("ij,ij->i", d, d)))])
+    seeds = CubicSpline(u[visit], q_swept, axis=0)(u)
+    seeds[visit] = q_swept
+    return seeds
 
 
 # --------------------------------------------------------------------------- whole path
@@ -402,18 +480,17 @@ def _batch_newton_steps(
     jac: np.ndarray,
     ep: np.ndarray,
     ew: np.ndarray,
-    todo: np.ndarray,
     damping_eye: np.ndarray,
     max_step: float,
 ) -> np.ndarray:
-    """Damped Newton steps (m, dof) of the samples ``todo`` (as :func:`_damped_newton_step`)."""
-    jb = jac[todo]
+    """Damped Newton steps (m, dof) of every sample of ``task`` (as :func:`_damped_newton_step`)
+    from their Jacobians (m, 6, dof) and errors (m, 3)."""
     if task.six_dof:
-        jt_b, e_b = jb, np.concatenate([ep[todo], ew[todo]], axis=1)
+        jt_b, e_b = jac, np.concatenate([ep, ew], axis=1)
     else:
-        bt = np.swapaxes(task.normals[todo], 1, 2)  # (m, 2, 3)
-        jt_b = np.concatenate([jb[:, :3], bt @ jb[:, 3:]], axis=1)
-        e_b = np.concatenate([ep[todo], np.einsum("mij,mj->mi", bt, ew[todo])], axis=1)
+        bt = np.swapaxes(task.normals, 1, 2)  # (m, 2, 3)
+        jt_b = np.concatenate([jac[:, :3], bt @ jac[:, 3:]], axis=1)
+        e_b = np.concatenate([ep, np.einsum("mij,mj->mi", bt, ew)], axis=1)
     a = jt_b @ np.swapaxes(jt_b, 1, 2) + damping_eye
     dq = np.einsum("mji,mj->mi", jt_b, np.linalg.solve(a, e_b[..., None])[..., 0])
     big = np.abs(dq).max(axis=1, keepdims=True)
@@ -422,26 +499,54 @@ def _batch_newton_steps(
 
 
 def _refine(
-    kin: _TcpKinematics, task: _Task, q: np.ndarray, options: IKOptions
+    kin: _TcpKinematics, task: _Task, q: np.ndarray, options: IKOptions,
+    jacobian_out: np.ndarray | None = None, progress: Callable[[int], None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Batched refinement of ``q`` (n, dof) in place: pinocchio per sample, errors and Newton
-    steps vectorised, until every sample is within the tolerances.
+    """Batched refinement of ``q`` (n, dof) in place, by chunks of samples: pinocchio per
+    configuration, errors and Newton steps vectorised, until every sample is within the
+    tolerances; each pass evaluates only the samples still above them.
 
-    Returns the position [m] and orientation [rad] errors (n,) and TCP Jacobians
-    (n, 6, dof) of the last evaluation.
+    Returns the position [m] and orientation [rad] errors (n,) and the Jacobian condition
+    numbers (n,) of the last evaluation; fills ``jacobian_out`` (n, 6, dof) with its TCP
+    Jacobians when given. ``progress(samples_done)`` after each chunk.
     """
+    n, dof = q.shape
     damping_eye = np.eye(task.size) * options.damping
-    for _ in range(options.max_iterations + 1):
-        rot, pos, jac = kin.evaluate_path(q)
-        ep, ew = _path_errors(task, rot, pos)
-        pos_err = np.linalg.norm(ep, axis=1)
-        ang_err = np.linalg.norm(ew, axis=1)
-        todo = np.flatnonzero((pos_err > options.tol_position) | (ang_err > options.tol_angle))
-        if not todo.size:
-            break
-        q[todo] += _batch_newton_steps(task, jac, ep, ew, todo, damping_eye,
-                                       options.max_newton_step)
-    return pos_err, ang_err, jac
+    pos_err, ang_err, cond = np.empty(n), np.empty(n), np.empty(n)
+    for start in range(0, n, _CHUNK):
+        rows = np.arange(start, min(start + _CHUNK, n))
+        sub = _sub_task(task, rows)
+        qc = q[rows]  # a copy, written back below
+        pose, jac = np.empty((rows.size, 4, 4)), np.empty((rows.size, 6, dof))
+        todo = np.arange(rows.size)
+        for _ in range(options.max_iterations + 1):
+            kin.evaluate_rows(qc, todo, pose, jac)
+            ep, ew = _path_errors(_sub_task(sub, todo), pose[todo, :3, :3], pose[todo, :3, 3])
+            pos_err[rows[todo]] = np.linalg.norm(ep, axis=1)
+            ang_err[rows[todo]] = np.linalg.norm(ew, axis=1)
+            above = ((pos_err[rows[todo]] > options.tol_position)
+                     | (ang_err[rows[todo]] > options.tol_angle))
+            if not above.any():
+                break
+            todo, ep, ew = todo[above], ep[above], ew[above]
+            qc[todo] += _batch_newton_steps(_sub_task(sub, todo), jac[todo], ep, ew,
+                                            damping_eye, options.max_newton_step)
+        q[rows] = qc
+        cond[rows] = jacobian_condition_number(jac, options.condition_length)
+        if jacobian_out is not None:
+            jacobian_out[rows] = jac
+        if progress is not None:
+            progress(int(rows[-1]) + 1)
+    return pos_err, ang_err, cond
+
+
+def _sub_task(task: _Task, rows: np.ndarray) -> _Task:
+    """The targets of the samples ``rows`` only."""
+    return _Task(
+        positions=task.positions[rows], tool_axes=task.tool_axes[rows],
+        rotations=None if task.rotations is None else task.rotations[rows],
+        normals=None if task.normals is None else task.normals[rows], q_start=task.q_start,
+    )
 
 
 def solve_path_ik(
@@ -451,12 +556,16 @@ def solve_path_ik(
     q_start: np.ndarray,
     x_axes: np.ndarray | None = None,
     options: IKOptions | None = None,
+    jacobians: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> PathIK:
     """Joint configurations placing the TCP on ``positions`` with its +z on ``tool_axes``.
 
     Phases: validate the task; sequential sweep (seed from the previous samples, damped
-    Newton to a coarse tolerance); batched refinement to the final tolerance; convergence
-    check; path checks (joint limits, joint jumps = branch flips, near-singular poses).
+    Newton to a coarse tolerance) over every sample, or every k-th one on paths sampled finer
+    than ``options.sweep_spacing`` (the others seeded by a spline through them); batched
+    refinement to the final tolerance; convergence check; path checks (joint limits, joint
+    jumps = branch flips, near-singular poses).
 
     Parameters
     ----------
@@ -472,6 +581,10 @@ def solve_path_ik(
         5-DoF milling task where the rotation about the tool axis is free.
     options : IKOptions or None
         Tolerances, iteration counts and path-check limits; ``None``: ``IKOptions()``.
+    jacobians : bool
+        Also return the TCP Jacobians at the solution (``PathIK.jacobian``).
+    progress : callable or None
+        ``progress(done, total)`` now and then (units of work: swept plus refined samples).
 
     Raises
     ------
@@ -482,12 +595,50 @@ def solve_path_ik(
     options = IKOptions() if options is None else options
     task = _validate_task(robot, positions, tool_axes, q_start, x_axes)
     kin = _TcpKinematics(robot)
-    q = _sweep(kin, task, options)
-    pos_err, ang_err, jac = _refine(kin, task, q, options)
+    jac = np.empty((task.n, 6, robot.dof)) if jacobians else None
+    stride = _sweep_stride(task, options)
+    solved = None
+    if stride > 1:
+        try:
+            solved = _solve_strided(kin, task, options, stride, jac, progress)
+        except InputError:  # the strided sweep lost the path: sample by sample says where
+            solved = None
+    if solved is None:
+        solved = _solve_strided(kin, task, options, 1, jac, progress)
+    q, pos_err, ang_err, cond = solved
     _check_converged(task, q, pos_err, ang_err, options)
-    cond = jacobian_condition_number(jac, options.condition_length)
     _check_path(robot, task, q, cond, options)
-    return PathIK(q=q, condition_number=cond, position_error=pos_err, axis_error=ang_err)
+    return PathIK(q=q, condition_number=cond, position_error=pos_err, axis_error=ang_err,
+                  jacobian=jac)
+
+
+def _solve_strided(
+    kin: _TcpKinematics, task: _Task, options: IKOptions, stride: int,
+    jac: np.ndarray | None, progress: Callable[[int, int], None] | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Sweep every ``stride``-th sample, seed the others from the spline through them, refine
+    all: ``(q, position errors, orientation errors, condition numbers)``, or None when the
+    refinement moved a sample by more than a branch flip (``max_joint_step``) from its seed
+    (it left the swept branch)."""
+    visit = _swept_samples(task.n, stride)
+    total = visit.size + task.n  # units of work: swept, then refined samples
+    q_swept = _sweep(kin, task, options, visit, _offset(progress, 0, total))
+    q = q_swept if stride == 1 else _seeds_between(task, visit, q_swept)
+    seeds = None if stride == 1 else q.copy()
+    pos_err, ang_err, cond = _refine(kin, task, q, options, jac,
+                                     _offset(progress, visit.size, total))
+    if seeds is not None and not np.abs(q - seeds).max() <= options.max_joint_step:
+        return None
+    return q, pos_err, ang_err, cond
+
+
+def _offset(
+    progress: Callable[[int, int], None] | None, base: int, total: int
+) -> Callable[[int], None] | None:
+    """``done -> progress(base + done, total)`` (None without a progress callback)."""
+    if progress is None:
+        return None
+    return lambda done: progress(base + done, total)
 
 
 # --------------------------------------------------------------------------- checks

@@ -9,7 +9,8 @@ What the runner needs from the robot for a path sampled at arc lengths ``s``: th
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -17,7 +18,11 @@ from scipy.interpolate import CubicSpline
 from feedopt.errors import InputError
 from feedopt.robot.ik import IKOptions, PathIK, solve_path_ik
 from feedopt.robot.model import RobotModel
-from feedopt.robot.stiffness import translational_compliance
+from feedopt.robot.stiffness import compliance_from_jacobians, joint_stiffness
+
+# Samples per block when the compliance is formed from the IK's Jacobians (bounds the
+# (block, 6, 6) intermediate of Eq. 3.19).
+_BLOCK = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,19 @@ def _arc_lengths(s: np.ndarray, positions: np.ndarray) -> np.ndarray:
     return s
 
 
+def _translational_compliance(jacobians: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """The (n, 3, 3) translational block of ``J K^-1 J^T`` (Eq. 3.19; Eq. 3.20 with the DPP
+    set), block by block: bit for bit
+    :func:`feedopt.robot.stiffness.translational_compliance` of the same configurations,
+    without a second Jacobian pass or a kept (n, 6, 6) array."""
+    n = jacobians.shape[0]
+    out = np.empty((n, 3, 3))
+    for start in range(0, n, _BLOCK):
+        block = slice(start, start + _BLOCK)
+        out[block] = compliance_from_jacobians(jacobians[block], k)[:, :3, :3]
+    return out
+
+
 def robot_along_path(
     robot: RobotModel,
     s: np.ndarray,
@@ -83,6 +101,7 @@ def robot_along_path(
     stiffness_set: str | np.ndarray,
     x_axes: np.ndarray | None = None,
     ik_options: IKOptions | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> RobotAlongPath:
     """Solve the robot stage along a sampled path.
 
@@ -103,6 +122,8 @@ def robot_along_path(
         TCP +x directions (6-DoF task); ``None``: rotation about the tool axis free (5-DoF).
     ik_options : IKOptions or None
         IK tunables; ``None``: the defaults.
+    progress : callable or None
+        ``progress(done, total)`` during the IK (:func:`~feedopt.robot.ik.solve_path_ik`).
 
     Returns
     -------
@@ -115,8 +136,11 @@ def robot_along_path(
         (unreachable, joint limit, branch flip, near-singular; named by index and pose).
     """
     s = _arc_lengths(s, positions)
-    ik = solve_path_ik(robot, positions, tool_axes, q_start, x_axes=x_axes, options=ik_options)
-    compliance = translational_compliance(robot, ik.q, stiffness_set)
+    k = joint_stiffness(robot, stiffness_set)
+    ik = solve_path_ik(robot, positions, tool_axes, q_start, x_axes=x_axes, options=ik_options,
+                       jacobians=True, progress=progress)
+    compliance = _translational_compliance(ik.jacobian, k)
+    ik = replace(ik, jacobian=None)  # (n, 6, dof): not kept
     q_of_s = CubicSpline(s, ik.q, axis=0)
     return RobotAlongPath(
         ik=ik,

@@ -26,7 +26,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.forces import critical_angles
 from feedopt.registry import add_unique
-from feedopt.schedule.deflection import DeflectionModel
+from feedopt.schedule.deflection import DeflectionModel, norm3
 from feedopt.units import MM
 
 
@@ -147,7 +147,7 @@ def deflection_feed_bound(model: DeflectionModel, limit: float) -> tuple[np.ndar
         return _upper_roots_projected(a, b, limit)
 
     def zero_feed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return np.linalg.norm(b, axis=-1) if b.ndim == 3 else np.abs(b)
+        return norm3(b) if b.ndim == 3 else np.abs(b)
 
     for sl, angles, a, b in model.chunks():
         zero[sl] = model.refine(sl, angles, zero_feed(a, b), "max",
