@@ -1,36 +1,79 @@
-"""KUKA KRL program of a path for the native controller (KRC4, KSS 8.x spline motions).
+"""KUKA KRL program of a path for the native controller: a ``.src`` + ``.dat`` pair (KRC4, KSS 8.x).
 
 The thesis (section 3.7) compares its closed-loop RSI trajectory with the controller's own
-planner fed with key points of the path in a ``SPLINE ... ENDSPLINE`` block, using ``SLIN``
-for the straight lines and ``SPL`` for the corners. :func:`write_krl_program` writes such a
-program with a per-segment ``WITH $VEL.CP = ...`` (m/s), so the feed schedule of a timing law
-can be replayed natively at the key points, and a comment block says what the controller will
-do differently from the RSI trajectory. :func:`parse_krl_spline` reads the block back.
+planner fed with key points of the path in a ``SPLINE ... ENDSPLINE`` block, ``SLIN`` for the
+straight lines and ``SPL`` for the corners, each with the law's feed as ``WITH $VEL.CP``
+(m/s). :func:`write_krl_program` writes the whole cell program around that block:
 
-What the file contains (no BAS calls, every setting explicit):
+1. ``;FOLD INI``: the standard KSS 8.x initialisation (``GLOBAL INTERRUPT DECL 3 WHEN
+   $STOPMESS==TRUE DO IR_STOPM ( )``, ``INTERRUPT ON 3``, ``BAS (#INITMOV,0 )``: velocities,
+   accelerations, approximation and $JERK back to the defaults, whatever ran before);
+2. ``$TOOL``, ``$BASE``, ``$LOAD`` from the module's ``.dat`` (``FO_TOOL``, ``FO_BASE``,
+   ``FO_LOAD``: the TOOL_DATA / BASE_DATA / LOAD_DATA of :mod:`feedopt.export.frames`),
+   ``$IPO_MODE``, ``$ORI_TYPE``, ``$ADVANCE``, PTP and CP velocities and accelerations;
+3. ``PTP FO_APPROACH``: a joint move to ``APPROACH_MM`` above the lead-in point along the
+   tool axis (an ``AXIS`` in the ``.dat``, on the start configuration's branch;
+   :func:`feedopt.export.frames.entry_exit`);
+4. spindle on (:class:`SpindleControl`: an output ``$OUT[n]`` with a run-up wait, a call of the
+   user's own subprogram, or by default a ``HALT`` for the operator), after ``WAIT SEC 0``
+   (an advance-run stop: the robot has arrived above the part when it happens);
+5. ``SLIN`` down to the lead-in point, at :data:`APPROACH_VEL_M_S`;
+6. the ``SPLINE`` block: an ``SLIN`` lead-in of ``LEAD_IN_MM`` along the start tangent to
+   the path start (collinear with a first line, so no stop there), the key points, an
+   ``SLIN`` lead-out of ``LEAD_OUT_MM`` along the end tangent;
+7. ``SLIN`` retract up the tool axis; ``WAIT SEC 0``; spindle off.
 
-- ``$BWDSTART``, ``$ADVANCE``, ``$TOOL``, ``$BASE``, ``$IPO_MODE``, ``$ORI_TYPE``;
-- ``$VEL_AXIS[i]`` / ``$ACC_AXIS[i]`` (percent) for the approach, then
-  ``PTP {A1 ..., A6 ...}`` to the start configuration (the joint angles of the first point);
-- ``$VEL.CP`` / ``$ACC.CP`` (m/s, m/s^2), ``$VEL.ORI1/2`` / ``$ACC.ORI1/2`` (deg/s, deg/s^2);
-- one ``SPLINE ... ENDSPLINE`` block with one ``SLIN``/``SPL`` per point after the first.
+Limits checked before writing (:class:`InputError` otherwise; the exporter then writes no
+program and says why in summary.json): at most :data:`MAX_SEGMENTS` segments in the block;
+every ``$VEL.CP`` in [:data:`VEL_CP_MIN`, :data:`VEL_CP_MAX`] m/s (the range of the SLIN/SPL
+inline forms of KSS 8.x; the controller caps at its machine datum $VEL_MA.CP); no segment
+shorter than :data:`MIN_SEGMENT_MM` (points closer than the file's 4 decimals resolve are
+the same point to the controller); names of at most 24 characters.
+
+Followed: the KSS 8.x INI fold and DEFDAT/DECL forms as KUKA's editor writes them (public KRL
+in robot-integration repositories: ``BAS (#INITMOV,0 )``, ``DEFDAT name PUBLIC`` / ``DECL
+E6AXIS HOME={A1 0,A2 -90,...}``, ``LOAD_DATA[1]={M -1.0,CM {X 0.0,...},J {X 0.0,...}}``) and
+the spline syntax the thesis used (``SPLINE``/``SLIN``/``SPL``/``ENDSPLINE``, ``WITH
+$VEL.CP``). KUKA's own manuals were not available here: the segment cap and the $VEL.CP range
+are as stated above, not checked against them. :func:`parse_krl_spline` and
+:func:`parse_krl_dat` read the files back.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.job import Blocker, Exporter, ExportJob
+from feedopt.export.frames import (
+    APPROACH_MM,
+    CellFrames,
+    EntryExit,
+    cell_frames,
+    entry_exit,
+    header_lines,
+)
+from feedopt.export.job import Blocker, Exporter, ExportJob, status_line
 from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
-# KSS 8.x: a spline block holds at most 1000 segments (pass key points, not dense samples).
+#: KSS 8.x: a spline block holds at most 1000 segments (pass key points, not dense samples).
 MAX_SEGMENTS = 1000
+#: $VEL.CP range [m/s] of the KSS 8.x SLIN/SPL inline forms.
+VEL_CP_MIN = 0.001
+VEL_CP_MAX = 2.0
+#: Shortest segment written [mm] (the positions have 4 decimals).
+MIN_SEGMENT_MM = 0.01
+#: Speed of the SLIN down to the lead-in point and of the retract [m/s].
+APPROACH_VEL_M_S = 0.02
+#: Relative feed tolerance of the pieces lines are split into (see feedopt.export.gcode_out).
+FEED_TOLERANCE = 0.02
+#: Names declared in the .dat.
+TOOL_VAR, BASE_VAR, LOAD_VAR, APPROACH_VAR = "FO_TOOL", "FO_BASE", "FO_LOAD", "FO_APPROACH"
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,23}$")
 
 NATIVE_CONTROLLER_NOTE = (
@@ -51,6 +94,50 @@ NATIVE_CONTROLLER_NOTE = (
 )
 
 
+@dataclass(frozen=True)
+class SpindleControl:
+    """How the program switches the spindle.
+
+    output : ``$OUT[output]`` TRUE to run, FALSE to stop (None: no output)
+    run_up_s : wait after switching on [s] (the spindle reaching its speed)
+    on_call, off_call : names of the user's global subprograms to call instead (``NAME()``)
+    With neither an output nor calls (the default) the program stops with ``HALT`` before the
+    cut (start the spindle, then continue) and after it (stop the spindle).
+    """
+
+    output: int | None = None
+    run_up_s: float = 5.0
+    on_call: str | None = None
+    off_call: str | None = None
+
+    def lines(self, on: bool) -> list[str]:
+        """KRL lines that switch the spindle on (``on``) or off, after an advance-run stop."""
+        call = self.on_call if on else self.off_call
+        what = "on" if on else "off"
+        out = ["WAIT SEC 0 ; advance-run stop: the motions above are finished"]
+        if call is not None:
+            return out + [f"{call}() ; spindle {what}: your subprogram"]
+        if self.output is not None:
+            out.append(f"$OUT[{self.output}] = {'TRUE' if on else 'FALSE'} ; spindle {what}")
+            if on:
+                out.append(f"WAIT SEC {_fmt(self.run_up_s, 3)} ; spindle run-up")
+            return out
+        return out + [f"; spindle {what}: no output or subprogram configured: the program "
+                      f"stops here; switch the spindle {what}, then press Start", "HALT"]
+
+    def check(self) -> None:
+        """InputError for an output number or a subprogram name KRL cannot take."""
+        if self.output is not None and not (isinstance(self.output, int)
+                                            and 1 <= self.output <= 8192):
+            raise InputError(f"spindle output {self.output!r}: use an $OUT number 1-8192")
+        if not (np.isfinite(self.run_up_s) and 0 <= self.run_up_s <= 600):
+            raise InputError(f"spindle run_up_s {self.run_up_s!r}: use 0-600 s")
+        for call in (self.on_call, self.off_call):
+            if call is not None and not _NAME_RE.match(call):
+                raise InputError(f"spindle subprogram {call!r}: use a KRL name (at most 24 "
+                                 "letters, digits or '_', starting with a letter)")
+
+
 def _fmt(x: float, decimals: int) -> str:
     s = f"{x:.{decimals}f}".rstrip("0").rstrip(".")
     return "0" if s in ("-0", "") else s
@@ -62,7 +149,11 @@ def _fmt_vel(v: float) -> str:
                                       trim="-")
 
 
-def _validate(name, points, motion, velocity_m_s, start_axis_deg):
+def _pose(p: np.ndarray) -> str:
+    return "{" + ", ".join(f"{ax} {_fmt(x, 4)}" for ax, x in zip("XYZABC", p, strict=True)) + "}"
+
+
+def _check_name(name: str) -> None:
     if not _NAME_RE.match(name):
         fixed = re.sub(r"[^A-Za-z0-9_]", "_", name)[:24] or "feedopt"
         if not re.match(r"[A-Za-z_]", fixed):
@@ -71,13 +162,19 @@ def _validate(name, points, motion, velocity_m_s, start_axis_deg):
             f"KRL program name {name!r} is not valid: use at most 24 letters, digits or '_' "
             f"starting with a letter (e.g. {fixed!r})"
         )
-    pts = np.asarray(points, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 6 or pts.shape[0] < 2:
+
+
+def _check_velocity(what: str, v: float, vel_max: float) -> None:
+    if not (np.isfinite(v) and VEL_CP_MIN <= v <= vel_max):
         raise InputError(
-            f"KRL points must be an (n, 6) array [x, y, z mm, a, b, c deg] with n >= 2, "
-            f"got shape {pts.shape}"
-        )
-    n = pts.shape[0]
+            f"KRL {what} is {float(v)!r} m/s; $VEL.CP must be in [{VEL_CP_MIN}, {vel_max}] m/s "
+            "(KSS 8.x SLIN/SPL range)")
+
+
+def _check_points(pts: np.ndarray, extra: int = 0, names: Sequence[str] = ()) -> None:
+    """Finite points, at most MAX_SEGMENTS segments (``extra`` more will be added), none
+    shorter than MIN_SEGMENT_MM; ``names`` name the segments (default "segment to point i")."""
+    n = pts.shape[0] + extra
     if n - 1 > MAX_SEGMENTS:
         raise InputError(
             f"KRL spline block would have {n - 1} segments; KSS 8.x allows {MAX_SEGMENTS} per "
@@ -86,8 +183,26 @@ def _validate(name, points, motion, velocity_m_s, start_axis_deg):
     bad = np.argwhere(~np.isfinite(pts))
     if bad.size:
         i, j = bad[0]
-        axis = "XYZABC"[j]
-        raise InputError(f"KRL point {i} has a non-finite {axis} = {float(pts[i, j])!r}")
+        raise InputError(f"KRL point {i} has a non-finite {'XYZABC'[j]} = {float(pts[i, j])!r}")
+    length = np.linalg.norm(np.diff(pts[:, :3], axis=0), axis=1)
+    short = np.flatnonzero(length < MIN_SEGMENT_MM)
+    if short.size:
+        i = int(short[0])
+        what = names[i] if names else f"segment to point {i + 1}"
+        raise InputError(
+            f"KRL {what} is {length[i]:.3g} mm long; segments must be at least "
+            f"{MIN_SEGMENT_MM} mm (merge the points)")
+
+
+def _validate(name, points, motion, velocity_m_s, start_axis_deg, vel_max):
+    _check_name(name)
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 6 or pts.shape[0] < 2:
+        raise InputError(
+            f"KRL points must be an (n, 6) array [x, y, z mm, a, b, c deg] with n >= 2, "
+            f"got shape {pts.shape}"
+        )
+    n = pts.shape[0]
     motion = [str(m).upper() for m in motion]
     if len(motion) != n - 1:
         raise InputError(
@@ -105,17 +220,38 @@ def _validate(name, points, motion, velocity_m_s, start_axis_deg):
             f"KRL velocity_m_s must have one value per point ({n}) or per point after the "
             f"first ({n - 1}), got {vel.shape[0]}"
         )
-    bad_v = np.flatnonzero(~(np.isfinite(vel) & (vel > 0)))
-    if bad_v.size:
-        i = int(bad_v[0])
-        raise InputError(
-            f"KRL velocity to point {i + 1} is {float(vel[i])!r} m/s; $VEL.CP must be positive "
-            "and finite"
-        )
+    for i, v in enumerate(vel):
+        _check_velocity(f"velocity to point {i + 1}", v, vel_max)
     q0 = np.asarray(start_axis_deg, dtype=float).reshape(-1)
     if q0.shape != (6,) or not np.isfinite(q0).all():
         raise InputError(f"KRL start_axis_deg must be 6 finite joint angles [deg], got {q0}")
     return pts, motion, vel, q0
+
+
+def _comment_lines(comments: Sequence[str]) -> list[str]:
+    out = []
+    for c in comments:
+        ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
+        out.extend(f"; {part}" for part in ascii_text.splitlines() or [""])
+    return out
+
+
+def dat_text(name: str, frames: CellFrames, approach_axis_deg: np.ndarray,
+             comments: Sequence[str] = ()) -> str:
+    """The ``.dat`` module data: FO_TOOL / FO_BASE (FRAME), FO_LOAD (LOAD), FO_APPROACH (AXIS)."""
+    axis = ",".join(f"A{i + 1} {_fmt(q, 4)}" for i, q in enumerate(approach_axis_deg))
+    return "\n".join([
+        f"DEFDAT {name} PUBLIC",
+        "; Generated by feedopt: tool, base and load data of the program "
+        f"{name}.src (see its header).",
+        *_comment_lines(comments),
+        *(f"; {line}" for line in header_lines(frames)),
+        f"DECL FRAME {TOOL_VAR}={frames.tool.krl()}",
+        f"DECL FRAME {BASE_VAR}={frames.base.krl()}",
+        f"DECL LOAD {LOAD_VAR}={frames.load.krl()}",
+        f"DECL AXIS {APPROACH_VAR}={{{axis}}}",
+        "ENDDAT",
+    ]) + "\n"
 
 
 def write_krl_program(
@@ -127,31 +263,38 @@ def write_krl_program(
     start_axis_deg: np.ndarray,
     comments: Sequence[str] = (),
     *,
-    tool: str = "TOOL_DATA[1]",
-    base: str = "$NULLFRAME",
+    frames: CellFrames,
+    entry: EntryExit | None = None,
+    spindle: SpindleControl = SpindleControl(),
     accel_cp_m_s2: float = 1.0,
     approach_percent: float = 10.0,
-) -> Path:
-    """Write a KRL ``.src`` program that runs ``points`` natively in a spline block.
+    approach_vel_m_s: float = APPROACH_VEL_M_S,
+    vel_cp_max_m_s: float = VEL_CP_MAX,
+) -> tuple[Path, Path]:
+    """Write the KRL ``.src`` and ``.dat`` that run ``points`` natively (module docstring).
 
     Parameters
     ----------
-    path : file to write; KRL requires the program name to equal the file stem.
-    name : program name (``DEF name()``); ``None`` takes the file stem.
+    path : the ``.src`` to write (the ``.dat`` goes beside it); KRL requires the program name
+        to equal the file stem.
+    name : program name (``DEF name( )``); ``None`` takes the file stem.
     points : (n, 6) TCP poses in the robot base frame, X, Y, Z [mm], A, B, C [deg] (KUKA
-        Z-Y'-X''). The first point is where the robot already is after the PTP.
+        Z-Y'-X''): the path start, then its key points.
     motion : ``"SLIN"`` or ``"SPL"`` for each point after the first (n - 1 values).
     velocity_m_s : ``$VEL.CP`` [m/s] of the segment that reaches each point; n - 1 values, or n
         values of which the first (the start point) is ignored.
     start_axis_deg : (6,) joint angles A1..A6 [deg] of the start pose (IK of ``points[0]``).
     comments : extra lines for the header comment (scenario, law, ...).
-    tool, base : KRL expressions assigned to ``$TOOL`` and ``$BASE``. ``$NULLFRAME`` is the
-        robot base only when ``$ROBROOT`` = ``$WORLD`` (the default installation); the tool
-        must be the TCP the path was planned for.
-    accel_cp_m_s2 : ``$ACC.CP`` [m/s^2] for the spline block.
-    approach_percent : ``$VEL_AXIS`` / ``$ACC_AXIS`` [%] for the PTP to the start.
+    frames : tool, base and load data (:func:`feedopt.export.frames.cell_frames`).
+    entry : approach, lead-in, lead-out and retract; ``None``: a PTP straight to the start
+        joints and none of them (for a program that starts in the air).
+    spindle : how the spindle is switched (:class:`SpindleControl`).
+    accel_cp_m_s2 : ``$ACC.CP`` [m/s^2]; approach_percent : PTP ``$VEL_AXIS``/``$ACC_AXIS``.
+    approach_vel_m_s : ``$VEL.CP`` of the SLIN down to the lead-in point and of the retract.
+    vel_cp_max_m_s : the cell's largest $VEL.CP (at most :data:`VEL_CP_MAX`).
 
-    Returns the path written. Raises :class:`InputError` for an invalid name, shape or value.
+    Returns the ``.src`` and ``.dat`` paths. Raises :class:`InputError` for an invalid name,
+    shape or value and for a violated controller limit; nothing is written then.
     """
     path = Path(path)
     name = path.stem if name is None else name
@@ -160,18 +303,31 @@ def write_krl_program(
             f"KRL program name {name!r} must equal the file name stem {path.stem!r} "
             "(the controller looks the program up by its file name)"
         )
-    pts, motion, vel, q0 = _validate(name, points, motion, velocity_m_s, start_axis_deg)
+    vel_max = min(float(vel_cp_max_m_s), VEL_CP_MAX)
+    pts, motion, vel, q0 = _validate(name, points, motion, velocity_m_s, start_axis_deg,
+                                     vel_max)
+    spindle.check()
+    _check_velocity("approach velocity", approach_vel_m_s, vel_max)
     if not (np.isfinite(accel_cp_m_s2) and accel_cp_m_s2 > 0):
         raise InputError(f"$ACC.CP must be positive, got {accel_cp_m_s2!r} m/s^2")
     if not (0 < approach_percent <= 100):
         raise InputError(f"approach_percent must be in (0, 100], got {approach_percent!r}")
+    _check_points(pts, extra=0 if entry is None else 2)
+    block = pts if entry is None else np.vstack([entry.lead_in, pts, entry.lead_out])
+    if entry is not None:
+        _check_points(np.vstack([entry.above_lead_in, entry.lead_in, pts[0]]),
+                      names=("approach down to the lead-in point", "lead-in"))
+        _check_points(np.vstack([pts[-1], entry.lead_out, entry.retract]),
+                      names=("lead-out", "retract"))
+    seg_motion = motion if entry is None else ["SLIN", *motion, "SLIN"]
+    seg_vel = vel if entry is None else np.concatenate([vel[:1], vel, vel[-1:]])
 
-    out = [f"DEF {name}()"]
-    out.append(";FOLD feedopt header")
-    out.append("; Generated by feedopt: native KUKA spline program of the path key points.")
-    for c in comments:
-        ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
-        out.extend(f"; {part}" for part in ascii_text.splitlines() or [""])
+    out = [f"DEF {name}( )", ";FOLD feedopt header",
+           "; Generated by feedopt: native KUKA spline program of the path key points "
+           f"(KRC4, KSS 8.x); data in {name}.dat.", *_comment_lines(comments), ";"]
+    out.extend(f"; {line}" for line in header_lines(frames))
+    out.append(f"; In {name}.dat: {TOOL_VAR} = the TOOL_DATA, {BASE_VAR} = the BASE_DATA, "
+               f"{LOAD_VAR} = the LOAD_DATA above, {APPROACH_VAR} = the approach joints.")
     out.append(";")
     out.extend(f"; {line}" for line in NATIVE_CONTROLLER_NOTE)
     n_slin_pairs = sum(
@@ -187,43 +343,59 @@ def write_krl_program(
         f"{motion.count('SLIN')} SLIN, {motion.count('SPL')} SPL); $VEL.CP from "
         f"{_fmt_vel(vel.min())} to {_fmt_vel(vel.max())} m/s."
     )
-    out.append(
-        "; Start pose X,Y,Z,A,B,C = "
-        + ", ".join(_fmt(v, 4) for v in pts[0])
-        + " (robot must reach it with the PTP below)."
-    )
-    out.append(";ENDFOLD")
-    out.append("")
-    out.append(";FOLD settings (explicit, no BAS)")
-    out.append("$BWDSTART = FALSE")
-    out.append("$ADVANCE = 3")
-    out.append(f"$TOOL = {tool}")
-    out.append(f"$BASE = {base}")
-    out.append("$IPO_MODE = #BASE")
-    out.append("$ORI_TYPE = #VAR")
-    for i in range(1, 7):
-        out.append(f"$VEL_AXIS[{i}] = {_fmt(approach_percent, 3)}")
-    for i in range(1, 7):
-        out.append(f"$ACC_AXIS[{i}] = {_fmt(approach_percent, 3)}")
-    out.append(f"$VEL.CP = {_fmt_vel(vel[0])}")
-    out.append("$VEL.ORI1 = 200")
-    out.append("$VEL.ORI2 = 200")
-    out.append(f"$ACC.CP = {_fmt(accel_cp_m_s2, 6)}")
-    out.append("$ACC.ORI1 = 100")
-    out.append("$ACC.ORI2 = 100")
-    out.append(";ENDFOLD")
-    out.append("")
-    out.append("; approach: joint move to the start configuration (robot stops here)")
-    out.append("PTP {" + ", ".join(f"A{i + 1} {_fmt(q, 4)}" for i, q in enumerate(q0)) + "}")
-    out.append("")
-    out.append("SPLINE")
-    for k, (m, p, v) in enumerate(zip(motion, pts[1:], vel, strict=True), start=1):
-        pos = ", ".join(f"{ax} {_fmt(x, 4)}" for ax, x in zip("XYZABC", p, strict=True))
-        out.append(f"  {m} {{{pos}}} WITH $VEL.CP = {_fmt_vel(v)} ; point {k}")
+    out.append("; Start pose X,Y,Z,A,B,C = " + ", ".join(_fmt(v, 4) for v in pts[0]) + ".")
+    if entry is None:
+        out.append("; No approach, lead-in, lead-out or retract: the PTP goes straight to the "
+                   "start joints.")
+    else:
+        out.append(f"; Entry: PTP to {APPROACH_MM:g} mm above the lead-in point, SLIN down, "
+                   f"SLIN lead-in of {_fmt(np.linalg.norm(pts[0, :3] - entry.lead_in[:3]), 3)} mm "
+                   "to the start; exit: SLIN lead-out, SLIN retract up the tool axis.")
+    out += [";ENDFOLD", "",
+            ";FOLD INI",
+            "  ;FOLD BASISTECH INI",
+            "    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )",
+            "    INTERRUPT ON 3",
+            "    BAS (#INITMOV,0 )",
+            "  ;ENDFOLD (BASISTECH INI)",
+            ";ENDFOLD (INI)", "",
+            f";FOLD settings (tool, base and load from {name}.dat)",
+            "$BWDSTART = FALSE",
+            f"$TOOL = {TOOL_VAR}", f"$BASE = {BASE_VAR}", f"$LOAD = {LOAD_VAR}",
+            "$IPO_MODE = #BASE", "$ORI_TYPE = #VAR", "$ADVANCE = 3"]
+    out += [f"$VEL_AXIS[{i}] = {_fmt(approach_percent, 3)}" for i in range(1, 7)]
+    out += [f"$ACC_AXIS[{i}] = {_fmt(approach_percent, 3)}" for i in range(1, 7)]
+    out += [f"$VEL.CP = {_fmt_vel(approach_vel_m_s)}", "$VEL.ORI1 = 200", "$VEL.ORI2 = 200",
+            f"$ACC.CP = {_fmt(accel_cp_m_s2, 6)}", "$ACC.ORI1 = 100", "$ACC.ORI2 = 100",
+            ";ENDFOLD", ""]
+    if entry is None:
+        out += ["; approach: joint move to the start configuration (robot stops here)",
+                f"PTP {APPROACH_VAR}", ""]
+        out += spindle.lines(on=True)
+    else:
+        out += [f"; approach: joint move to {APPROACH_MM:g} mm above the lead-in point",
+                f"PTP {APPROACH_VAR}", ""]
+        out += spindle.lines(on=True)
+        out += ["", "; down to the lead-in point (in the air)",
+                f"SLIN {_pose(entry.lead_in)} WITH $VEL.CP = {_fmt_vel(approach_vel_m_s)}"]
+    out += ["", "SPLINE"]
+    last = len(seg_motion)
+    for k, (m, p, v) in enumerate(zip(seg_motion, block[1:], seg_vel, strict=True), start=1):
+        what = ("lead-in" if entry is not None and k == 1 else
+                "lead-out" if entry is not None and k == last else
+                f"point {k - (entry is not None)}")
+        out.append(f"  {m} {_pose(p)} WITH $VEL.CP = {_fmt_vel(v)} ; {what}")
     out.append("ENDSPLINE")
-    out.append("END")
+    if entry is not None:
+        out += ["", f"; retract {APPROACH_MM:g} mm up the tool axis",
+                f"SLIN {_pose(entry.retract)} WITH $VEL.CP = {_fmt_vel(approach_vel_m_s)}"]
+    out += ["", *spindle.lines(on=False), "END"]
+    approach = q0 if entry is None else np.rad2deg(entry.q_above_lead_in)
+    dat = dat_text(name, frames, approach, comments)
+    dat_path = path.with_suffix(".dat")
     path.write_text("\n".join(out) + "\n", encoding="ascii")
-    return path
+    dat_path.write_text(dat, encoding="ascii")
+    return path, dat_path
 
 
 _SEG_RE = re.compile(
@@ -231,7 +403,9 @@ _SEG_RE = re.compile(
 )
 _NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _VEL_RE = re.compile(rf"\$VEL\.CP\s*=\s*(?P<v>{_NUM})", re.IGNORECASE)
-_AX_RE = re.compile(rf"^\s*(?P<ax>[A-Za-z]+)\s+(?P<v>{_NUM})\s*$")
+_AX_RE = re.compile(rf"^\s*(?P<ax>[A-Za-z]+[0-9]?)\s+(?P<v>{_NUM})\s*$")
+_DECL_RE = re.compile(r"^DECL\s+(?P<type>\w+)\s+(?P<name>\w+)\s*=\s*(?P<value>\{.*\})\s*$",
+                      re.IGNORECASE)
 
 
 def parse_krl_spline(text: str) -> list[dict]:
@@ -278,38 +452,100 @@ def parse_krl_spline(text: str) -> list[dict]:
     raise InputError(f"KRL SPLINE block opened on line {start + 1} has no ENDSPLINE")
 
 
+def _aggregate(text: str, where: str) -> dict:
+    """``{X 1.0,Y 2.0,CM {X 0.0}}`` -> ``{"X": 1.0, "Y": 2.0, "CM": {"X": 0.0}}``."""
+    inner = text.strip()[1:-1]
+    out: dict = {}
+    depth, item, items = 0, "", []
+    for ch in inner:
+        depth += ch == "{"
+        depth -= ch == "}"
+        if ch == "," and depth == 0:
+            items.append(item)
+            item = ""
+        else:
+            item += ch
+    items.append(item)
+    for it in items:
+        it = it.strip()
+        if "{" in it:
+            key, rest = it.split("{", 1)
+            out[key.strip().upper()] = _aggregate("{" + rest, where)
+            continue
+        am = _AX_RE.match(it)
+        if not am:
+            raise InputError(f"{where}: cannot read {it!r}")
+        out[am["ax"].upper()] = float(am["v"])
+    return out
+
+
+def parse_krl_dat(text: str) -> dict[str, dict]:
+    """The ``DECL TYPE NAME={...}`` aggregates of a ``.dat`` as ``{NAME: {"type": TYPE, ...}}``
+    (nested aggregates as dicts). Raises InputError naming the line for one it cannot read."""
+    out = {}
+    for i, raw in enumerate(text.splitlines(), start=1):
+        code = raw.split(";", 1)[0].strip()
+        m = _DECL_RE.match(code)
+        if m:
+            out[m["name"].upper()] = {"type": m["type"].upper(),
+                                      **_aggregate(m["value"], f"KRL .dat line {i}")}
+    return out
+
+
 def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
     """Key points for the native-controller program: segment ends (thesis section 3.7).
 
-    Lines end in an ``SLIN`` at the law's feed in the middle of the line; blends get two
-    ``SPL`` points (middle and end) at the law's lowest feed through the blend. Returns the
-    (n, 6) poses (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg].
+    Lines end in an ``SLIN``; a line is also cut at the chapter-4 key points (every
+    ``key_point_spacing``, thesis 4.2) and where the law's feed changes by more than
+    :data:`FEED_TOLERANCE`, so each SLIN's ``$VEL.CP`` is the lowest feed the law aims for on
+    it (:func:`feedopt.export.gcode_out.law_feed_targets`: the law's feed without its
+    boundary ramps, capped by the feed bound for a law that keeps it). Blends get two ``SPL``
+    points (middle and end) at the lowest such feed through the blend. Returns the (n, 6) poses
+    (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg].
     """
+    from feedopt.export.gcode_out import feed_pieces, law_feed_targets
     from feedopt.robot.kuka import abc_from_rotation
     from feedopt.robot.model import forward_kinematics
 
+    problem = job.problem
+    s = problem.s
+    target = law_feed_targets(job.verification.feed, problem.v_max, job.verification.exportable)
     s_pts, motions, vels = [0.0], [], []
-    feed_at = job.trajectory.feed_at
-    for a, b, kind in job.problem.segments():
-        if kind == "line":
-            s_pts.append(b)
-            motions.append("SLIN")
-            vels.append(float(feed_at(np.array([0.5 * (a + b)]))[0]))
-        else:  # blends: the controller's spline through the blend middle and end
-            v = float(np.min(feed_at(np.linspace(a, b, 9))))
+    for a, b, kind in problem.segments():
+        inside = np.arange(np.searchsorted(s, a, side="left"), np.searchsorted(s, b, side="right"))
+        if inside.size < 2:
+            inside = np.unique(np.clip(np.searchsorted(s, [a, b]), 0, s.size - 1))
+        g = target[inside]
+        if kind != "line":
+            v = float(g.min())
             s_pts += [0.5 * (a + b), b]
             motions += ["SPL", "SPL"]
             vels += [v, v]
+            continue
+        breaks = []
+        if problem.key_point_spacing > 0:
+            marks = np.arange(a + problem.key_point_spacing, b - 0.5 * problem.key_point_spacing,
+                              problem.key_point_spacing)
+            breaks = np.unique(np.searchsorted(s[inside], marks)).tolist()
+        if g.size < 2:
+            bounds = np.array([0, max(g.size - 1, 0)])
+        else:
+            bounds = feed_pieces(g, FEED_TOLERANCE, breaks)
+        for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+            s_pts.append(b if hi == bounds[-1] else float(s[inside[hi]]))
+            motions.append("SLIN")
+            vels.append(float(g[lo:hi + 1].min()))
     s_arr = np.asarray(s_pts)
     q = job.q_of_s(s_arr)
     pose = forward_kinematics(job.robot, q)
     points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
-    return points, motions, np.maximum(np.asarray(vels), 1e-6), np.rad2deg(q[0])
+    return points, motions, np.asarray(vels), np.rad2deg(q[0])
 
 
 def segment_count(path) -> int:
-    """Spline segments :func:`key_points` makes for ``path`` (one per line, two per blend)."""
-    return sum(1 if seg.kind == "line" else 2 for seg in path.segments)
+    """Spline segments :func:`key_points` makes for ``path`` at least (one per line, two per
+    blend), plus the lead-in and the lead-out."""
+    return sum(1 if seg.kind == "line" else 2 for seg in path.segments) + 2
 
 
 def early_check(robot, path) -> Blocker | None:
@@ -326,21 +562,28 @@ def early_check(robot, path) -> Blocker | None:
     return None
 
 
-def export_krl(job: ExportJob, out_dir: Path) -> dict:
-    """Write ``<law>.src``: the law's segment feeds as ``$VEL.CP`` at the key points."""
-    ver = job.verification
-    pts, motions, vels, q0 = key_points(job)
-    write_krl_program(out_dir / f"{job.law}.src", None, pts, motions, vels, q0, comments=[
-        f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with the "
-        "law's segment feeds as $VEL.CP",
-        *([] if ver.exportable else [f"NOT EXPORTABLE: {b}" for b in ver.export_blockers]),
-    ])
-    return {"krl_program": f"{job.law}.src"}
+def export_krl(job: ExportJob, out_dir: Path, spindle: SpindleControl = SpindleControl()
+               ) -> dict:
+    """Write ``<law>.src`` and ``<law>.dat``, or record why not (a controller limit, an
+    unreachable approach) as ``krl_program: None`` and ``krl_not_written``."""
+    try:
+        frames = cell_frames(job.robot)
+        pts, motions, vels, q0 = key_points(job)
+        entry = entry_exit(job)
+        write_krl_program(out_dir / f"{job.law}.src", None, pts, motions, vels, q0, comments=[
+            status_line(job),
+            f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with "
+            "the law's feeds as $VEL.CP",
+        ], frames=frames, entry=entry, spindle=spindle)
+    except InputError as exc:
+        return {"krl_program": None, "krl_not_written": f"no KRL program: {exc}"}
+    return {"krl_program": f"{job.law}.src", "krl_data": f"{job.law}.dat"}
 
 
 EXPORTER = Exporter(
-    name="krl", file_pattern="{law}.src", export=export_krl,
+    name="krl", file_pattern="{law}.src, {law}.dat", export=export_krl,
     for_law=lambda job: job.native_program, early_check=early_check,
-    description="KUKA KRL program (SPLINE with SLIN/SPL key points, per-segment $VEL.CP) for "
+    description="KUKA KRL program + data (INI, $TOOL/$BASE/$LOAD, approach, spindle, lead-in, "
+                "SPLINE with SLIN/SPL key points and per-segment $VEL.CP, lead-out, retract) for "
                 "the native-controller comparison of thesis 3.7",
 )

@@ -300,6 +300,7 @@ def read_rsi_csv(path: str | Path) -> RsiTable:
 def export_rsi(job: ExportJob, out_dir: Path) -> dict:
     """Write ``<law>.csv``: the law at the RSI cycle, pose = pinocchio FK of the q columns
     (q interpolated along s between the IK samples)."""
+    from feedopt.export.frames import frames_header_lines
     from feedopt.robot.model import forward_kinematics
 
     motion = job.samples.motion
@@ -318,6 +319,7 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
         f"{ver.max_deflection / MM:.4f} mm (limit {job.limit_mm} mm)",
         "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
         "deflection = predicted static deflection at the commanded feed",
+        *frames_header_lines(job.robot),
     ])
     return {"fk_vs_path_error_mm": interp_error / MM, "rsi_csv": f"{job.law}.csv"}
 

@@ -76,6 +76,8 @@ def scenario_summary(prepared: Prepared) -> dict:
     TCP, tool, material, cut, placement, feeds, limits and sampling (the report's inputs
     table is built from this dictionary alone).
     """
+    from feedopt.export.frames import frames_summary
+
     sc, tool, model, robot = prepared.scenario, prepared.tool, prepared.model, prepared.robot
     c = model.coefficients
     problem = prepared.problem
@@ -86,6 +88,7 @@ def scenario_summary(prepared: Prepared) -> dict:
         "name": sc.name,
         "description": sc.description,
         "fits": sc.fit_notes(),
+        "frames": frames_summary(robot),
         "robot": {"name": robot.name, "directory": sc.robot.directory,
                   "stiffness_source": robot.sources.get("stiffness"),
                   "tool_source": robot.sources.get("tool")},

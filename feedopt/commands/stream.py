@@ -1,0 +1,212 @@
+"""``feedopt stream``: serve a feedopt RSI trajectory to a KUKA controller over RSI Ethernet."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from feedopt.errors import InputError
+
+#: Exit code of a stream that stopped safely before the end of the trajectory.
+EXIT_STOPPED_EARLY = 3
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "stream",
+        help="stream a trajectory CSV to a KUKA controller as RSI corrections (UDP server)",
+        description=(
+            "Listen for the controller's RSI Ethernet packets (<Rob> XML, one per 4 ms cycle) "
+            "and answer each at once with the RKorr correction of that cycle and the echoed "
+            "IPOC: the trajectory's pose minus the pose at RSI_ON (absolute mode) or this "
+            "cycle's increment (relative). The first cycles check that the controller runs the "
+            "trajectory's cycle and that the robot (RIst) is at its start pose. Late and "
+            "missing packets are counted; on --late-limit, Ctrl-C or the end of the trajectory "
+            "the motion slows to a stop along the path and holds, then <Stop>1</Stop> ends "
+            "RSI_MOVECORR(). No answer moves the correction by more than --max-step-mm / "
+            "--max-step-deg from the one the controller holds. With --pid the thesis's PID "
+            "(Eq. 3.27, Kp 0.05, Ki 0.3 Cartesian, Ki 0.02 angular) adds the error between the "
+            "pose asked for and the measured one (RIst, or a tracker with --tracker-listen). "
+            "Exit 0: the trajectory was completed; 3: stopped safely before its end; 2: bad "
+            "input; 130/143: stopped by a signal (after the ramp)."),
+    )
+    p.add_argument("csv", metavar="CSV", help="trajectory CSV written by feedopt run (<law>.csv)")
+    p.add_argument("--listen", default="127.0.0.1:49152", metavar="HOST:PORT",
+                   help="UDP address to answer on: IP_NUMBER / PORT of the controller's "
+                   "Ethernet configuration (default 127.0.0.1:49152; port 0: any free port)")
+    p.add_argument("--cycle-ms", type=float, default=4.0,
+                   help="the controller's RSI cycle: 4 (IPO_FAST, default) or 12 (IPO); the "
+                   "CSV's rows must be this far apart")
+    p.add_argument("--mode", choices=("absolute", "relative"), default="absolute",
+                   help="RSI_ON mode: total correction from the pose at RSI_ON (absolute, "
+                   "default; HOLDON=1) or per-cycle increments (relative; HOLDON=0)")
+    p.add_argument("--late-limit", type=int, default=20, metavar="N",
+                   help="stop (ramp to hold) once N packets were late or missing (default 20)")
+    p.add_argument("--max-step-mm", type=float, default=0.1, metavar="MM",
+                   help="largest change of the translation correction between two answers "
+                   "(default 0.1 mm = 25 mm/s at 4 ms); a trajectory needing more is refused")
+    p.add_argument("--max-step-deg", type=float, default=0.1, metavar="DEG",
+                   help="largest change of each angle correction between two answers "
+                   "(default 0.1 deg)")
+    p.add_argument("--log", metavar="CSV", help="write one row per controller cycle here")
+    p.add_argument("--pid", action="store_true",
+                   help="close the loop with the thesis's PID (Eq. 3.26-3.27) on the measured "
+                   "pose (RIst, or --tracker-listen)")
+    p.add_argument("--tracker-listen", metavar="HOST:PORT",
+                   help="with --pid: read the measured TCP pose from UDP datagrams "
+                   "'x,y,z,a,b,c' (mm, deg, robot base frame) here instead of RIst")
+    p.add_argument("--pid-limit-mm", type=float, default=2.0, metavar="MM",
+                   help="largest PID correction per axis (default 2 mm)")
+    p.add_argument("--pid-limit-deg", type=float, default=1.0, metavar="DEG",
+                   help="largest PID correction per angle (default 1 deg)")
+    p.add_argument("--wait-s", type=float, default=30.0, metavar="S",
+                   help="how long to wait for the controller's first packet (default 30 s)")
+    p.add_argument("--sen-type", default="ImFree",
+                   help="Sen Type of the answers: the configuration's SENTYPE (default ImFree)")
+    p.add_argument("--realtime", action="store_true",
+                   help="ask for real-time scheduling (SCHED_FIFO; Linux, needs CAP_SYS_NICE): "
+                   "what keeps answers within the cycle on a loaded machine")
+    p.set_defaults(func=run)
+
+
+def _positive(value: float, option: str, example: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(f"{option} must be a positive number, got {value!r} (e.g. "
+                         f"{option} {example})")
+    return value
+
+
+def _settings(args: argparse.Namespace, cycle_s: float):
+    from feedopt.rsi.corrections import CorrectionMode
+    from feedopt.rsi.pid import PidGains
+    from feedopt.rsi.protocol import check_sen_type, parse_address
+    from feedopt.rsi.streamer import Measurement, StreamSettings
+
+    if args.late_limit < 1:
+        raise InputError(f"--late-limit must be >= 1, got {args.late_limit}")
+    for option, value, example in (("--max-step-mm", args.max_step_mm, "0.1"),
+                                   ("--max-step-deg", args.max_step_deg, "0.1"),
+                                   ("--pid-limit-mm", args.pid_limit_mm, "2"),
+                                   ("--pid-limit-deg", args.pid_limit_deg, "1"),
+                                   ("--wait-s", args.wait_s, "30")):
+        _positive(value, option, example)
+    if args.tracker_listen is not None and not args.pid:
+        raise InputError("--tracker-listen feeds the PID: add --pid (or drop --tracker-listen)")
+    tracker = (None if args.tracker_listen is None
+               else parse_address(args.tracker_listen, "--tracker-listen"))
+    return StreamSettings(
+        listen=parse_address(args.listen, "--listen"), mode=CorrectionMode(args.mode),
+        late_limit=args.late_limit, max_step_mm=args.max_step_mm,
+        max_step_deg=args.max_step_deg, wait_s=args.wait_s,
+        silence_s=max(0.25, 50 * cycle_s), sen_type=check_sen_type(args.sen_type),
+        pid=PidGains.thesis() if args.pid else None,
+        measurement=Measurement.TRACKER if tracker else Measurement.RIST,
+        tracker_listen=tracker, pid_limit_mm=args.pid_limit_mm,
+        pid_limit_deg=args.pid_limit_deg)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check everything, bind, stream; print the outcome; exit code (module docstring)."""
+    from feedopt.export.rsi import read_rsi_csv
+    from feedopt.outfile import check_output_file, write_atomically
+    from feedopt.rsi.corrections import check_steps, plan_from_table
+    from feedopt.rsi.streamer import Streamer, StreamStatus
+    from feedopt.scenario import RSI_CYCLES_MS
+
+    if args.cycle_ms not in RSI_CYCLES_MS:
+        raise InputError(f"--cycle-ms {args.cycle_ms:g}: RSI runs 4 ms (IPO_FAST) or 12 ms "
+                         "(IPO) cycles")
+    cycle_s = args.cycle_ms * 1e-3
+    settings = _settings(args, cycle_s)
+    table = _read_trajectory(args.csv, read_rsi_csv)
+    plan = plan_from_table(table, cycle_s, args.csv)
+    check_steps(plan, settings.max_step_mm, settings.max_step_deg)
+    log = None if args.log is None else check_output_file(args.log, "--log", example="cycles.csv",
+                                                          inputs=[args.csv])
+    with Streamer(settings) as streamer:
+        host, port = streamer.address
+        if args.realtime:
+            from feedopt.rsi.streamer import request_realtime
+
+            why = request_realtime()
+            if why is not None:
+                print(f"feedopt stream: warning: {why}; answers may be late on a busy machine",
+                      file=sys.stderr)
+        print(f"feedopt stream: listening on {host}:{port} (UDP) for the controller; "
+              f"{len(plan)} rows of {args.cycle_ms:g} ms ({plan.t_s[-1]:.3f} s), "
+              f"{settings.mode.value} mode" + (", PID on" if settings.pid else ""), flush=True)
+        if settings.mode.value == "relative":
+            print("feedopt stream: relative mode: the Ethernet configuration's RKorr elements "
+                  "need HOLDON=\"0\"", flush=True)
+        report_box = []
+        bar = _progress_bar(len(plan))
+
+        def progress(row: int, _last_row: int) -> None:
+            if row > bar.n:
+                bar.update(row - bar.n)
+
+        def stream(log_path=None):
+            report_box.append(streamer.run(plan, log_path, progress=progress))
+
+        try:
+            if log is None:
+                stream()
+            else:
+                write_atomically(log, stream, "--log")
+        finally:
+            bar.close()
+        report = report_box[0]
+    _print_report(report, args)
+    if report.status is StreamStatus.COMPLETED:
+        return 0
+    if report.status is StreamStatus.INTERRUPTED:
+        import signal
+        return 128 + int(getattr(signal, report.signal_name or "SIGINT", signal.SIGINT))
+    return EXIT_STOPPED_EARLY
+
+
+def _read_trajectory(path: str, read_rsi_csv):
+    """The trajectory table; a corrections table (``<law>_rsi.csv``) gets its own message."""
+    from feedopt.rsi.corrections import COLUMNS
+
+    try:
+        return read_rsi_csv(path)
+    except InputError as exc:
+        if "header" in str(exc) and repr(COLUMNS[1]) in str(exc):
+            raise InputError(f"{path} is an RSI corrections table (<law>_rsi.csv, written for "
+                             "your own sensor program); feedopt stream takes the trajectory "
+                             "<law>.csv written beside it") from None
+        raise
+
+
+def _progress_bar(rows: int):
+    """Rows sent so far on stderr (tqdm; off when stderr is not a terminal)."""
+    from tqdm import tqdm
+
+    return tqdm(total=rows, unit="row", file=sys.stderr, disable=None, mininterval=0.5,
+                desc="stream", leave=False)
+
+
+def _print_report(report, args) -> None:
+    from feedopt.rsi.streamer import StreamStatus
+
+    r = report
+    print(f"stream {r.status.value}: {r.rows_sent}/{r.rows_total} rows, {r.answered} packets "
+          f"answered from {r.controller[0]}:{r.controller[1]}; late {r.late}, missing "
+          f"{r.missing}, late by the controller's count {r.controller_late}, not RSI "
+          f"{r.bad_packets}; slowest answer {r.max_response_ms:.3f} ms; largest step "
+          f"{r.max_step_mm:.6f} mm / {r.max_step_deg:.6f} deg"
+          + (f"; largest PID correction {r.max_pid_mm:.4f} mm" if args.pid else ""))
+    for note in r.notes:
+        print(f"note: {note}")
+    if r.status is StreamStatus.LATE_LIMIT:
+        print(f"feedopt stream: stopped at the late-packet limit ({args.late_limit}): the "
+              "motion slowed to a stop along the path and was held", file=sys.stderr)
+    elif r.status is StreamStatus.CONTROLLER_SILENT:
+        print("feedopt stream: the controller stopped sending before the end of the "
+              "trajectory (RSI stopped on its side: see its message window)", file=sys.stderr)
+    elif r.status is StreamStatus.INTERRUPTED:
+        print(f"feedopt stream: interrupted ({r.signal_name}); the motion slowed to a stop "
+              "along the path and was held" + (f"; log written to {args.log}" if args.log
+                                                 else ""), file=sys.stderr)

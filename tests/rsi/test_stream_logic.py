@@ -1,0 +1,99 @@
+"""The streamer's per-cycle logic without sockets: what the controller holds after a discarded
+answer, the stop ramp against a numerical integral of its profile, the handshake checks."""
+
+import numpy as np
+import pytest
+
+from feedopt.errors import InputError
+from feedopt.export.rsi import RsiTable
+from feedopt.rsi.corrections import CorrectionMode, plan_from_table
+from feedopt.rsi.protocol import ControllerPacket
+from feedopt.rsi.streamer import CorrectionStream, Phase, StreamSettings, StreamStatus
+
+CYCLE = 0.004
+START = np.array([1750.0, -300.0, 800.0, -9.7, 0.0, 0.0])
+
+
+def _line_plan(rows: int, speed_mm_s: float):
+    """A straight line along x at constant speed from START."""
+    m = np.zeros((rows, 18))
+    m[:, 0] = np.arange(rows) * CYCLE
+    m[:, 1:7] = START
+    m[:, 1] += speed_mm_s * m[:, 0]
+    return plan_from_table(RsiTable.from_matrix(m), CYCLE, "line.csv")
+
+
+def _run(logic, first: int, count: int, delay: int = 0):
+    out = []
+    for k in range(first, first + count):
+        out.append(logic.answer(ControllerPacket(ipoc=4 * k, rist=START.copy(), delay=delay),
+                                None))
+    return out
+
+
+@pytest.mark.parametrize("mode", list(CorrectionMode))
+def test_a_discarded_answer_is_not_built_on(mode) -> None:
+    """The controller's Delay rises by one: it dropped the last answer and still holds the
+    one before; the next answer steps from that, by at most the limit."""
+    limit = 0.05
+    plan = _line_plan(400, 10.0)  # 0.04 mm per cycle
+    logic = CorrectionStream(plan, StreamSettings(mode=mode, max_step_mm=limit))
+    answers = _run(logic, 0, 50)
+    held_before = answers[-2].total  # what the controller holds if answers[-1] is dropped
+    # ... the stream then falls behind by 5 packets it never answers (catch-up wanted)
+    ans = logic.answer(ControllerPacket(ipoc=4 * 55, rist=START.copy(), delay=6), None, 5)
+    np.testing.assert_array_equal(ans.held, held_before)
+    assert np.linalg.norm(ans.total[:3] - held_before[:3]) == pytest.approx(limit)
+    if mode is CorrectionMode.RELATIVE:  # the increment is taken from what is held
+        np.testing.assert_allclose(ans.sent, ans.total - held_before)
+    # the controller took that one (Delay unchanged): the next steps from it
+    nxt = logic.answer(ControllerPacket(ipoc=4 * 56, rist=START.copy(), delay=6), None)
+    np.testing.assert_array_equal(nxt.held, ans.total)
+
+
+def test_without_delay_the_last_answer_is_assumed_held() -> None:
+    logic = CorrectionStream(_line_plan(100, 5.0), StreamSettings())
+    answers = [logic.answer(ControllerPacket(ipoc=4 * k), None) for k in range(30)]
+    for a, b in zip(answers[:-1], answers[1:], strict=True):
+        np.testing.assert_array_equal(b.held, a.total)
+
+
+def test_stop_ramp_follows_the_smoothstep() -> None:
+    """After request_stop the row advances by the integral of r(u) = 1 - 3u^2 + 2u^3 over
+    the ramp length L = max(4 cycles, 1.5 v / a, sqrt(6 v / j)) (trapezoid rule here)."""
+    v, a, j = 8.0, 500.0, 5000.0
+    plan = _line_plan(2000, v)
+    logic = CorrectionStream(plan, StreamSettings(stop_accel_mm_s2=a, stop_jerk_mm_s3=j))
+    _run(logic, 0, 105)  # handshake (5) + 100 rows
+    row0 = logic.answer(ControllerPacket(ipoc=4 * 105), None).row
+    logic.request_stop(StreamStatus.INTERRUPTED, 4 * 105)
+    length = max(4 * CYCLE, 1.5 * v / a, np.sqrt(6 * v / j))
+    steps = int(np.ceil(length / CYCLE)) + 3
+    ramp = _run(logic, 106, steps)
+    for n, ans in enumerate(ramp, start=1):
+        t = min(n * CYCLE, length)
+        u = np.linspace(0.0, t / length, 2001)
+        r = 1 - 3 * u ** 2 + 2 * u ** 3
+        integral = np.sum((r[1:] + r[:-1]) / 2 * np.diff(u)) * length  # [s]
+        assert ans.row == pytest.approx(row0 + integral / CYCLE, rel=1e-6)
+    assert ramp[-1].phase is Phase.HOLD and ramp[-1].stop
+    # on the line, decelerating within the limit
+    x = np.array([ans.total[0] for ans in ramp])
+    speed = np.diff(np.concatenate([[x[0] - v * CYCLE], x])) / CYCLE
+    assert np.all(np.diff(speed) <= 1e-9) and speed[-1] == pytest.approx(0.0, abs=1e-9)
+    assert np.max(-np.diff(speed) / CYCLE) <= a * 1.01
+
+
+def test_handshake_refuses_another_cycle() -> None:
+    logic = CorrectionStream(_line_plan(10, 1.0), StreamSettings())
+    with pytest.raises(InputError, match="advances by 12 per packet"):
+        for k in range(5):
+            logic.answer(ControllerPacket(ipoc=12 * k, rist=START.copy()), None)
+
+
+def test_handshake_refuses_a_robot_away_from_the_start() -> None:
+    logic = CorrectionStream(_line_plan(10, 1.0), StreamSettings(start_tolerance_mm=0.5))
+    away = START + np.array([0.0, 0.6, 0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(InputError, match=r"0\.600 mm / 0\.000 deg away"):
+        for k in range(5):
+            logic.answer(ControllerPacket(ipoc=4 * k, rist=away), None)
