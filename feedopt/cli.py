@@ -19,9 +19,9 @@ import traceback
 from feedopt import __version__, commands
 from feedopt.errors import InputError, Terminated
 
-# Order in --help; modules not listed here are appended alphabetically.
-_ORDER = ["run", "validate", "compare", "path", "forces", "calibrate", "calibrate-stiffness",
-          "robot"]
+# Order in --help (module names); modules not listed here are appended alphabetically.
+_ORDER = ["run", "validate", "sweep", "compare", "path", "engagement", "forces", "calibrate",
+          "calibrate_stiffness", "robot", "stream", "rsi_sim"]
 
 
 def _command_modules() -> list[str]:

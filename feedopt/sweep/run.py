@@ -1,0 +1,199 @@
+"""``run_sweep``: check everything, evaluate the points not yet done, write the results.
+
+Order: the scenario and its files, the laws, the objective, the grid and every one of its
+values, the output folder are checked first (InputError, nothing written); then the cluster
+is started (or reached) and only then the folder is created or taken over; results are
+appended to the table as they finish; at the end the table is rewritten in grid order, the
+best feasible point is written to best.json and the heat maps are drawn.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from feedopt import __version__
+from feedopt.errors import InputError, Terminated
+from feedopt.outfile import write_atomically
+from feedopt.sweep.bundle import build_bundle, check_axes
+from feedopt.sweep.execute import evaluator
+from feedopt.sweep.folder import BEST, SPEC, TABLE, check_folder, open_folder, write_spec
+from feedopt.sweep.grid import Grid, parse_grid, point_key
+from feedopt.sweep.objective import Objective, best, parse_objective
+from feedopt.sweep.plots import objective_array, plot_names, write_plots
+from feedopt.sweep.point import Metric, PointSettings, Status
+from feedopt.sweep.table import Appender, Row, columns, done, read_table, to_row, write_table
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What a finished sweep wrote and found."""
+
+    out_dir: Path
+    grid: Grid
+    rows: list[Row]  # one per grid point, in grid order
+    evaluated: int  # points evaluated by this call
+    reused: int  # points taken from the table of an earlier, interrupted sweep
+    objective: Objective
+    best: Row | None
+    best_value: float | None
+    counts: dict[str, int]  # {status: number of grid points}
+    plots: list[Path]
+
+
+class SweepInterrupted(BaseException):  # noqa: N818 - wraps KeyboardInterrupt / Terminated
+    """The sweep was stopped; its table keeps every finished point for a resume."""
+
+    def __init__(self, cause: BaseException, out: Path, finished: int, total: int) -> None:
+        super().__init__(str(cause))
+        self.cause, self.out, self.finished, self.total = cause, out, finished, total
+
+
+def _point_dict(grid: Grid, row: Row) -> dict[str, float]:
+    return {a.name: float(row[a.name]) for a in grid.axes}
+
+
+def run_sweep(
+    scenario_path: str | Path,
+    grid_specs: Sequence[str],
+    out_dir: str | Path | None = None,
+    laws: Sequence[str] | None = None,
+    objective: str = "t_star",
+    spacing_mm: float | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    restart: bool = False,
+    extra: Sequence[tuple[str, Metric]] = (),
+    progress: bool | None = None,
+) -> SweepResult:
+    """Evaluate every point of the grid of ``scenario_path`` and write the sweep's folder.
+
+    Parameters
+    ----------
+    scenario_path
+        The scenario every point starts from.
+    grid_specs
+        ``--grid`` texts (:mod:`feedopt.sweep.grid`).
+    out_dir
+        The sweep's folder (default ``out/<scenario name>_sweep``); an earlier sweep of the
+        same inputs there is resumed (:mod:`feedopt.sweep.folder`).
+    laws
+        Laws run at every point (default: the scenario's).
+    objective
+        What the best point minimises (:mod:`feedopt.sweep.objective`).
+    spacing_mm
+        Sample spacing override (as ``feedopt run --spacing-mm``).
+    scheduler, workers
+        A running Dask scheduler's address, or the local cluster's worker processes (default:
+        the number of cores; 0: this process, no Dask).
+    restart
+        Replace an earlier sweep (or feedopt output) in ``out_dir`` instead of resuming it.
+    extra
+        ``(column, f(prepared, results) -> float)``: more numbers per point.
+    progress
+        Show a progress bar (default: when stderr is a terminal).
+
+    Raises
+    ------
+    InputError
+        Bad input of any kind, before anything is written.
+    SweepInterrupted
+        Ctrl-C, SIGTERM or SIGHUP while points were evaluated (the table keeps them).
+    """
+    from tqdm import tqdm
+
+    bundle, scenario = build_bundle(scenario_path)
+    laws = list(dict.fromkeys(laws or scenario.schedule.laws))
+    goal = parse_objective(objective, laws)
+    grid = parse_grid(grid_specs, bundle.raw, bundle.robot_doc)
+    if spacing_mm is not None and any(a.field == "path.spacing_mm" for a in grid.axes):
+        raise InputError("--spacing-mm and --grid path.spacing_mm both set the spacing: give "
+                         "one of them")
+    if workers is not None and (workers < 0 or (scheduler is not None and workers)):
+        raise InputError(f"--workers {workers}: give a number of local worker processes >= 0 "
+                         "(0: this process), and none with --scheduler (the cluster has its "
+                         "own)")
+    check_axes(bundle, grid.axes)
+    extra_names = [name for name, _ in extra]
+    header = columns(grid.axes, laws, extra_names)
+    if len(set(header)) != len(header):
+        raise InputError(f"extra metrics {extra_names} repeat a column name of the table")
+    spec = {"feedopt": __version__, "scenario": str(scenario_path), "digest": bundle.digest,
+            "laws": laws, "spacing_mm": spacing_mm, "columns": header,
+            "grid": [{"name": a.name, "values": list(a.values)} for a in grid.axes],
+            "objective": goal.name}
+    out = Path(out_dir) if out_dir else Path("out") / f"{scenario.name}_sweep"
+    plots = plot_names(grid)
+    plan = check_folder(out, [Path.cwd(), Path(scenario_path).resolve().parent], spec,
+                        [TABLE, SPEC, BEST] + [name for name, _ in plots], restart)
+    rows = {} if plan.fresh else read_table(plan.out / TABLE, header, grid.axes)
+    finished = done(rows)
+    todo = [p for p in grid.points() if point_key(p) not in finished]
+    settings = PointSettings(tuple(laws), spacing_mm, tuple(extra))
+    show = sys.stderr.isatty() if progress is None else progress
+
+    context = (evaluator(bundle, grid.axes, settings, scheduler, workers) if todo
+               else contextlib.nullcontext(None))
+    folder = None
+    count = 0
+    try:
+        with context as evaluate:
+            folder = open_folder(plan, spec)
+            appender = Appender(plan.out / TABLE, header)
+            try:
+                with tqdm(total=len(todo), disable=not show, unit="point", desc="sweep",
+                          file=sys.stderr) as bar:
+                    for result in (evaluate(todo) if todo else ()):
+                        row = to_row(result, grid.axes, laws, extra_names)
+                        appender.append(row)
+                        rows[point_key(result.values)] = row
+                        count += 1
+                        bar.update(1)
+            finally:
+                appender.close()
+        return _finish(plan.out, grid, rows, header, goal, spec, count, grid.size - len(todo))
+    except (KeyboardInterrupt, Terminated) as exc:
+        if folder is None:  # stopped before anything was written
+            raise
+        raise SweepInterrupted(exc, plan.out, grid.size - len(todo) + count,
+                               grid.size) from exc
+    finally:
+        if folder is not None:
+            folder.close()
+
+
+def _finish(out: Path, grid: Grid, rows: dict, header: list[str], goal: Objective, spec: dict,
+            evaluated: int, reused: int) -> SweepResult:
+    """Rewrite the table in grid order, find the best point, write best.json and the plots."""
+    keys = [point_key(p) for p in grid.points()]
+    in_grid = [rows[k] for k in keys]
+    current = set(keys)
+    others = [r for k, r in rows.items() if k not in current]  # from an earlier grid: kept
+    write_table(out / TABLE, header, in_grid + others)
+    found = best(in_grid, goal)
+    counts = {s.value: sum(r["status"] == s.value for r in in_grid) for s in Status}
+    counts["feasible"] = sum(r["feasible"] == "yes" for r in in_grid)
+    summary = {"points": grid.size, **counts, "objective": goal.name,
+               "best": None if found is None else _point_dict(grid, found[0]),
+               "best_value": None if found is None else found[1]}
+    best_doc = {"objective": goal.name, "label": goal.label, "value": summary["best_value"],
+                "point": summary["best"], "row": None if found is None else found[0]}
+    write_atomically(out / BEST, json.dumps(best_doc, indent=1) + "\n")
+    best_index = None
+    if found is not None:
+        best_index = tuple(a.values.index(_as_value(a, found[0][a.name])) for a in grid.axes)
+    written = write_plots(out, grid, objective_array(grid, rows, goal), goal, best_index)
+    write_spec(out, {**spec, "summary": summary})
+    return SweepResult(out_dir=out, grid=grid, rows=in_grid, evaluated=evaluated,
+                       reused=reused, objective=goal, best=None if found is None else found[0],
+                       best_value=None if found is None else found[1], counts=counts,
+                       plots=written)
+
+
+def _as_value(axis, text: str):
+    v = float(text)
+    return next(x for x in axis.values if float(x) == v)
