@@ -9,6 +9,7 @@ when everything succeeded (:mod:`feedopt.outdir`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import time
@@ -32,6 +33,7 @@ from feedopt.report.data import engagement_series
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
+from feedopt.schedule.compensation import CompensatedPath, CompensationCheck
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
 from feedopt.schedule.polynomial import sample_pieces
 from feedopt.schedule.stage import ScheduleInputs, schedule_problem
@@ -118,6 +120,18 @@ class LawResult:
     verification: Verification
     planning_time: float
     verification_time: float = 0.0
+    # residual mode: the commanded path, the robot and schedule along it, and the check
+    compensation: Compensated | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Compensated:
+    """A law planned for ``deflection.mode: residual`` on its compensated path."""
+
+    path: CompensatedPath  # commanded = nominal - mean deflection (fixed point)
+    along: RobotAlongPath  # IK and compliance along the commanded path
+    schedule: ScheduleInputs  # bound and problem on that compliance
+    check: CompensationCheck
 
 
 def _segment_names(path: ToolPath) -> list[str]:
@@ -229,9 +243,7 @@ def prepare(
 
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
-    x_axes = None
-    if scenario.robot.fix_tool_rotation:
-        x_axes = np.broadcast_to(placement.transform[:3, 0], placement.positions.shape).copy()
+    x_axes = _x_axes(scenario, placement)
     with progress_bar(progress, "[3/5] robot IK") as bar:
         along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
                                  np.deg2rad(scenario.robot.start_configuration_deg),
@@ -303,6 +315,82 @@ def plan_and_verify(
     return {law: results[law] for law in laws if law in results}
 
 
+def _x_axes(scenario: Scenario, placement: Placement) -> np.ndarray | None:
+    """Prescribed tool x axes (``robot.fix_tool_rotation``) or None (5-DoF, nearest)."""
+    if not scenario.robot.fix_tool_rotation:
+        return None
+    return np.broadcast_to(placement.transform[:3, 0], placement.positions.shape).copy()
+
+
+def compensate(prepared: Prepared, results: dict[str, LawResult],
+               progress: Progress = _stderr_progress) -> dict[str, LawResult]:
+    """``deflection.mode: residual``: plan each law on its compensated path.
+
+    The commanded path is ``nominal - mean deflection`` at the law's feed, a fixed point
+    (:func:`feedopt.schedule.compensation.compensation_fixed_point`) through the robot stage
+    (IK and compliance at the commanded pose), the schedule stage (residual bound) and the
+    law; the result is replayed on that compliance and checked: FK of the commanded joints
+    plus the predicted mean deflection gives the nominal path.
+    """
+    from feedopt.robot.model import forward_kinematics
+    from feedopt.schedule.compensation import check_compensation, compensation_fixed_point
+
+    sc, samples = prepared.scenario, prepared.samples
+    nominal = prepared.placement.positions
+    q_start = np.deg2rad(sc.robot.start_configuration_deg)
+    x_axes = _x_axes(sc, prepared.placement)
+    out: dict[str, LawResult] = {}
+    def along_at(commanded: np.ndarray) -> RobotAlongPath:
+        return robot_along_path(prepared.robot, samples.s, commanded,
+                                prepared.placement.tool_axes, q_start, sc.robot.stiffness,
+                                x_axes=x_axes)
+
+    for law, res in results.items():
+        t0 = time.perf_counter()
+
+        def plan(commanded: np.ndarray, law: str = law):
+            schedule = schedule_problem(sc, prepared.process, prepared.robot,
+                                        along_at(commanded), prepared.placement, samples,
+                                        prepared.path)
+            traj = plan_law(law, schedule.problem, {}, options=sc.schedule.options_for(law))
+            return traj.feed_at(samples.s), (schedule, traj)
+
+        def mean_deflection(commanded: np.ndarray, planned):
+            schedule, traj = planned
+            along = along_at(commanded)
+            model = dataclasses.replace(schedule.model, compliance=along.compliance)
+            return model.mean_deflection(traj.feed_at(samples.s)), (along, model)
+
+        path = compensation_fixed_point(nominal, plan, mean_deflection)
+        (schedule, traj), (along, model) = path.plan_state, path.pose_state
+        ver, dt = replay_all({law: traj}, schedule.problem, model, schedule.limit)[law]
+        fk = forward_kinematics(prepared.robot, along.ik.q)[:, :3, 3]
+        check = check_compensation(fk, model.mean_deflection(ver.feed), nominal)
+        problems = list(ver.problems)
+        if not path.converged:
+            problems.append(f"compensation: the offset still changed by {path.change / MM:.3g} "
+                            f"mm after {path.iterations} iterations")
+        if check.problem():
+            problems.append(check.problem())
+        notes = list(ver.warnings)
+        if path.feed_change > 0:
+            notes.append(f"compensation: the law's plan still changed its feed by "
+                         f"{path.feed_change:.2g} (relative) at its last re-plan; the exported "
+                         "plan is the last one and the pose is solved for it")
+        ver = dataclasses.replace(ver, problems=tuple(problems), warnings=tuple(notes),
+                                  verified=ver.verified and len(problems) == len(ver.problems))
+        out[law] = LawResult(trajectory=traj, verification=ver,
+                             planning_time=res.planning_time + time.perf_counter() - t0 - dt,
+                             verification_time=dt,
+                             compensation=Compensated(path, along, schedule, check))
+        progress(f"[5/5] {law}: compensated ({path.plans} plans, {path.iterations} pose "
+                 f"iterations, last change {path.change / MM:.1e} mm), offset up to "
+                 f"{check.max_offset / MM:.4f} mm, {traj.duration:.2f} s cycle, residual "
+                 f"deflection {ver.max_deflection / MM:.4f} mm, FK + mean deflection - nominal "
+                 f"{check.max_error / MM:.1e} mm, {ver.verdict.value}")
+    return out
+
+
 @dataclass
 class RunResult:
     out_dir: Path
@@ -365,14 +453,20 @@ def write_outputs(
         if not drawable:
             continue
         t0 = time.perf_counter()
-        samples = controller_samples(res.trajectory, cycle, prepared.q_of_s, problem.length)
+        comp = res.compensation
+        q_of_s = prepared.q_of_s if comp is None else comp.along.q_of_s
+        samples = controller_samples(res.trajectory, cycle, q_of_s, problem.length)
         if exported:
             spec = LAWS.get(law)
+            def nominal_in_base(s: np.ndarray) -> np.ndarray:
+                return prepared.placement.to_base(prepared.path.evaluate(s).position)
+
             job = ExportJob(
                 law=law, scenario_name=sc.name, trajectory=res.trajectory, verification=ver,
-                problem=problem, robot=prepared.robot, q_of_s=prepared.q_of_s,
-                path_in_base=lambda s: prepared.placement.to_base(
-                    prepared.path.evaluate(s).position),
+                problem=problem, robot=prepared.robot, q_of_s=q_of_s,
+                path_in_base=(nominal_in_base if comp is None
+                              else comp.path.commanded_at(problem.s)),
+                compensation=None if comp is None else comp.path.samples(problem.s),
                 samples=samples, cycle=cycle, limit_mm=sc.deflection.limit_mm,
                 unverified_on_request=not ver.exportable,
                 native_program=bool(spec is not None and spec.native_program),
@@ -436,6 +530,8 @@ def run_scenario(
     try:
         prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
         results = plan_and_verify(prepared, laws, progress)
+        if scenario.deflection.mode == "residual":
+            results = compensate(prepared, results, progress)
         if not results:
             raise InputError("no timing law planned this path: " + "; ".join(
                 prepared.declined.values()) + " — add convex or jerk to schedule.laws / --laws")

@@ -72,6 +72,9 @@ class ExportJob:
     unverified_on_request : written although not exportable (``--export-unverified``).
     native_program : the law's registry entry asks for a native controller program.
     blockers : exporters the run already knows cannot write (``{exporter: Blocker}``).
+    compensation : with ``deflection.mode: residual``, the nominal and commanded paths at the
+        path samples (:class:`feedopt.schedule.compensation.CompensatedSamples`); the pose
+        columns and ``path_in_base`` are then the commanded path.
     """
 
     law: str
@@ -88,6 +91,7 @@ class ExportJob:
     unverified_on_request: bool = False
     native_program: bool = False
     blockers: dict[str, Blocker] = field(default_factory=dict)
+    compensation: object | None = None
 
 
 @dataclass(frozen=True)

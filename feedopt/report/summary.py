@@ -210,7 +210,15 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "mean_mm3_s": prepared.process.material.removed_volume / MM**3 / traj.duration,
         "max_mm3_s": float(np.max(mrr)),
     }
+    comp = result.compensation
+    compensation = None if comp is None else {
+        "iterations": comp.path.iterations, "converged": comp.path.converged,
+        "last_change_mm": comp.path.change / MM, "max_offset_mm": comp.check.max_offset / MM,
+        "fk_plus_mean_minus_nominal_mm": comp.check.max_error / MM,
+        "lower_bound_s": comp.schedule.problem.lower_bound_time(),
+    }
     return {
+        "compensation": compensation,
         "material_removal_rate": removal,
         "cycle_time_s": traj.duration,
         "lower_bound_s": prepared.problem.lower_bound_time(),

@@ -127,22 +127,44 @@ def test_the_cap_bounds_the_compensating_offset():
 
 
 def test_the_fixed_point_converges_and_says_how():
-    """mean d depends on the commanded pose (compliance changes by ~1e-4 per mm): the
-    iteration reaches commanded = nominal - mean d(commanded) in a few steps."""
+    """mean d depends on the commanded pose (through the compliance) and on the planned feed,
+    which depends on the pose too: the iteration reaches commanded = nominal - mean
+    d(commanded, feed(commanded)) and re-plans until the feed repeats."""
     rng = np.random.default_rng(2)
     nominal = rng.normal(size=(50, 3))
     d0 = rng.normal(size=(50, 3)) * 3e-4
     gain = rng.normal(size=(3, 3)) * 0.05  # |d mean d / d pose| ~ 0.05: a strong coupling
+    plans = []
 
-    def evaluate(commanded):
-        return d0 + (commanded - nominal) @ gain.T, "state"
+    def plan(commanded):  # the feed falls slightly with the offset (a smooth law)
+        plans.append(1)
+        feed = 1.0 - 10.0 * np.linalg.norm(commanded - nominal, axis=1)
+        return feed, feed
 
-    res = compensation_fixed_point(nominal, evaluate)
-    assert res.converged and res.iterations <= 12 and res.change <= 1e-10
-    mean_d, _ = evaluate(res.commanded)
+    def mean_deflection(commanded, feed):
+        return (d0 + (commanded - nominal) @ gain.T) * feed[:, None], None
+
+    res = compensation_fixed_point(nominal, plan, mean_deflection, max_plans=8)
+    assert res.converged and res.change <= 1e-10 and res.feed_change <= 1e-9
+    assert res.plans == len(plans) and 2 <= res.plans <= 8
+    feed, _ = plan(res.commanded)
+    mean_d, _ = mean_deflection(res.commanded, feed)
+    np.testing.assert_allclose(res.commanded + mean_d, nominal, atol=1e-8)
+    # a law whose plan jumps: the pose is still solved for the last plan, which is kept
+    jumpy = iter(range(100))
+
+    def plan_jumpy(commanded):
+        f = np.full(len(commanded), 1.0 + 0.1 * (next(jumpy) % 2))
+        return f, f
+
+    res = compensation_fixed_point(nominal, plan_jumpy, mean_deflection, max_plans=3)
+    assert res.plans == 3 and res.feed_change > 0.05 and res.converged
+    mean_d, _ = mean_deflection(res.commanded, res.plan_state)
     np.testing.assert_allclose(res.commanded + mean_d, nominal, atol=1e-9)
-    diverging = compensation_fixed_point(nominal, lambda c: (d0 + 2.0 * (c - nominal), None),
-                                         max_iterations=5)
+    # a pose map that diverges is reported, not hidden
+    diverging = compensation_fixed_point(
+        nominal, plan, lambda c, f: (d0 + 2.0 * (c - nominal), None), max_iterations=5,
+        max_plans=1)
     assert not diverging.converged and diverging.iterations == 5
 
 
