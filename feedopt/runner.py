@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from feedopt import outdir
+from feedopt import background, outdir
 from feedopt.cell import Placement, place_path
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
@@ -198,6 +198,8 @@ def prepare_front(
     if path.moves is not None:
         scenario, program_notes = apply_program(scenario, path.moves, scenario.path.file)
     samples = _sample(path, spacing)
+    for note in scenario.fit_notes():  # a fitted input, before any result it shapes
+        progress(f"fit: {note}")
     warnings = scenario_warnings(scenario) + list(path.notes) + program_notes
     if path.dropped_waypoints:
         shown = ", ".join(str(i) for i in path.dropped_waypoints[:10])
@@ -432,7 +434,7 @@ def write_outputs(
                "warnings": list(prepared.warnings) + [f"law {law} declined: {why}" for law, why
                                                       in prepared.declined.items()],
                "declined_laws": dict(prepared.declined), "laws": {}}
-    series = []
+    series, pending = [], []
     for law, res in results.items():
         entry = law_summary(prepared, res)
         ver = res.verification
@@ -472,19 +474,32 @@ def write_outputs(
                 native_program=bool(spec is not None and spec.native_program),
                 blockers=prepared.export_blockers,
             )
-            entry.update(run_exporters(job, out_dir))
+            pending.append((law, entry, job))
         times[("export", law)] = time.perf_counter() - t0
         if report:
             series.append(law_series(law, problem.s, ver, samples))
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    if report:
-        t0 = time.perf_counter()
+    drawing = None
+    if report:  # drawn in a forked child while the exporters write (feedopt.background)
+        t_report = time.perf_counter()
         material = prepared.process.material
         engagement = (None if material is None
                       else engagement_series(prepared.samples, material))
-        write_run_report(out_dir, sc.name, summary, prepared.positions, prepared.samples.segment,
-                         problem, series, sc.deflection.limit_mm, engagement)
-        times[("report", "")] = time.perf_counter() - t0
+        drawing = background.start(lambda: write_run_report(
+            out_dir, sc.name, summary, prepared.positions, prepared.samples.segment, problem,
+            series, sc.deflection.limit_mm, engagement), "drawing the report")
+    try:
+        for law, entry, job in pending:
+            t0 = time.perf_counter()
+            entry.update(run_exporters(job, out_dir))
+            times[("export", law)] += time.perf_counter() - t0
+    except BaseException:
+        if drawing is not None:
+            drawing.join(cancel=True)
+        raise
+    if drawing is not None:
+        drawing.join()
+        times[("report", "")] = time.perf_counter() - t_report  # overlaps the exports
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     return summary
 
 

@@ -414,13 +414,17 @@ class Scenario(_Strict):
                 value = _field_value(self, fit.field)
             except ValueError as exc:
                 raise ValueError(f"fits[{k}].field: {exc}") from None
+            if value is None:  # not given: the section's own rules name it
+                continue
             if not isinstance(value, int | float) or isinstance(value, bool):
                 raise ValueError(f"fits[{k}].field: {fit.field} is not a number")
         return self
 
     def fit_notes(self) -> list[str]:
         """The fit notes of this scenario, each against the field's value here."""
-        return [fit.text(float(_field_value(self, fit.field))) for fit in self.fits]
+        values = [_field_value(self, fit.field) for fit in self.fits]
+        return [fit.text(float(v)) for fit, v in zip(self.fits, values, strict=True)
+                if v is not None]
 
     @model_validator(mode="before")
     @classmethod
