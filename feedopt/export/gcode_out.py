@@ -12,7 +12,7 @@ What is written (Fanuc-style, read back by :mod:`feedopt.gcode`): ``G21 G90 G94 
 an ``M0`` stop for the operator to start the spindle (the export does not know the spindle
 speed: see the header), a rapid to :data:`CLEARANCE_MM` above the start along the tool axis,
 a G1 plunge to the start, the path (lines as single G1 blocks split only where the F changes,
-curves as G1 chords between the planning samples), a G0 retract and ``M30``.
+curves as G1 chords within :data:`CHORD_TOLERANCE_MM`), a G0 retract and ``M30``.
 
 Coordinates are the robot base frame in mm, the frame every feedopt export uses
 (:mod:`feedopt.export.frames`): for a KUKA.CNC cell select BASE_DATA = $NULLFRAME with the
@@ -46,6 +46,10 @@ CLEARANCE_MM = 50.0
 PLUNGE_FEED_MM_S = 10.0
 #: Largest angle between the tool axis and the base +Z for a 3-axis program [deg].
 AXIS_TOLERANCE_DEG = 0.01
+#: Largest distance of the path from a written chord on curves [mm]: chords are as long as
+#: the sag kappa L^2 / 8 allows (far below a cutting tolerance; 0.32 mm chords on a 12.7 mm
+#: radius), not one per planning sample.
+CHORD_TOLERANCE_MM = 0.001
 #: Decimals of the coordinates [mm] and of F [mm/min] (F is rounded down).
 XYZ_DECIMALS = 4
 F_DECIMALS = 1
@@ -161,7 +165,8 @@ def gcode_text(positions_mm: np.ndarray, target_m_s: np.ndarray, line_sample: np
     ends = np.zeros(p.shape[0], dtype=bool)
     ends[bounds] = True
     ends[np.asarray(breaks, dtype=int)] = True
-    ends |= ~np.asarray(line_sample, dtype=bool)  # curves: a chord per sample
+    ends |= _curve_chord_ends(p, ~np.asarray(line_sample, dtype=bool))
+    ends[-1] = True
     ends[0] = False
     piece_of = np.searchsorted(bounds, np.arange(p.shape[0]), side="left") - 1
     piece_of = np.clip(piece_of, 0, feeds.size - 1)
@@ -185,11 +190,40 @@ def gcode_text(positions_mm: np.ndarray, target_m_s: np.ndarray, line_sample: np
     return "\n".join(out) + "\n"
 
 
-def _chord_sag_mm(p: np.ndarray) -> float:
-    """Largest chord sag between samples, from second differences (uniform spacing)."""
-    if p.shape[0] < 3:
+def _curve_chord_ends(p: np.ndarray, curve: np.ndarray,
+                      tol_mm: float = CHORD_TOLERANCE_MM) -> np.ndarray:
+    """Samples on curves where a chord ends: the chord count a curve needs for a sag tol is
+    the integral of sqrt(kappa / (8 tol)) ds; a chord ends where that count passes a whole
+    number (curvature from second differences of the samples)."""
+    n = p.shape[0]
+    ends = np.zeros(n, dtype=bool)
+    if n < 3 or not curve.any():
+        return ends
+    ds = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    h = max(float(np.median(ds)), 1e-12)
+    kappa = np.zeros(n)
+    kappa[1:-1] = np.linalg.norm(p[2:] - 2.0 * p[1:-1] + p[:-2], axis=1) / h**2
+    rate = np.where(curve, np.sqrt(kappa / (8.0 * tol_mm)), 0.0)
+    count = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * ds)])
+    ends[1:] = np.floor(count[1:]) > np.floor(count[:-1])
+    # a curve's first and last sample end a block too (where the line blocks meet it)
+    edges = np.flatnonzero(np.diff(curve.astype(np.int8)) != 0)
+    ends[edges] = True
+    ends[np.minimum(edges + 1, n - 1)] = True
+    return ends & (curve | np.roll(curve, 1) | np.roll(curve, -1))
+
+
+def _chord_sag_mm(p: np.ndarray, kept: np.ndarray) -> float:
+    """Largest distance of the samples from the chords between the ``kept`` samples."""
+    idx = np.flatnonzero(kept)
+    if idx.size < 2:
         return 0.0
-    return float(np.max(np.linalg.norm(p[2:] - 2.0 * p[1:-1] + p[:-2], axis=1)) / 8.0)
+    k = np.clip(np.searchsorted(idx, np.arange(p.shape[0]), side="right") - 1, 0, idx.size - 2)
+    a, b = p[idx[k]], p[idx[k + 1]]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab),
+                                                             1e-300), 0.0, 1.0)
+    return float(np.max(np.linalg.norm(p - a - t[:, None] * ab, axis=1)))
 
 
 def export_gcode(job: ExportJob, out_dir: Path) -> dict:
@@ -215,6 +249,9 @@ def export_gcode(job: ExportJob, out_dir: Path) -> dict:
     # a sample on a line, or at the end of one (its block ends there anyway)
     seg = np.clip(np.searchsorted(starts, problem.s, side="right") - 1, 0, len(segments) - 1)
     line_sample = is_line[seg]
+    kept = _curve_chord_ends(p, ~line_sample)
+    kept[seg_ends] = True
+    kept[0] = kept[-1] = True
     text = gcode_text(p, target, line_sample, seg_ends.tolist(), comments=[
         status_line(job),
         *frames_header_lines(job.robot),
@@ -224,8 +261,8 @@ def export_gcode(job: ExportJob, out_dir: Path) -> dict:
         "block" + (", never above the deflection feed bound v_max" if keeps else
                    "; this law does NOT keep the deflection bound"),
         "start/end ramps of the law not written: the controller ramps by itself",
-        f"curves as G1 chords between the planning samples [largest sag "
-        f"{_chord_sag_mm(p):.2g} mm]",
+        f"curves as G1 chords within {CHORD_TOLERANCE_MM} mm of the path [largest sag "
+        f"{_chord_sag_mm(p, kept):.2g} mm]",
     ])
     name = f"{job.law}.nc"
     (out_dir / name).write_text(text, encoding="ascii")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -92,6 +93,20 @@ class ExportJob:
     native_program: bool = False
     blockers: dict[str, Blocker] = field(default_factory=dict)
     compensation: object | None = None
+
+    @cached_property
+    def controller_joints(self) -> np.ndarray:
+        """Joints at the controller samples (m, dof) [rad], ``q_of_s(motion.s)`` (computed once
+        for every exporter of the job)."""
+        return self.q_of_s(self.samples.motion.s)
+
+    @cached_property
+    def controller_pose(self) -> np.ndarray:
+        """TCP poses (m, 4, 4) at the controller samples: pinocchio FK of
+        :attr:`controller_joints`, shared by the exporters (the RSI CSV, its corrections)."""
+        from feedopt.robot.model import forward_kinematics
+
+        return forward_kinematics(self.robot, self.controller_joints)
 
 
 @dataclass(frozen=True)

@@ -301,11 +301,9 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
     """Write ``<law>.csv``: the law at the RSI cycle, pose = pinocchio FK of the q columns
     (q interpolated along s between the IK samples)."""
     from feedopt.export.frames import frames_header_lines
-    from feedopt.robot.model import forward_kinematics
 
     motion = job.samples.motion
-    q = job.q_of_s(motion.s)
-    pose = forward_kinematics(job.robot, q)
+    q, pose = job.controller_joints, job.controller_pose
     # How far FK of the interpolated joints is from the exact path point (for the record).
     exact = job.path_in_base(motion.s)
     interp_error = float(np.max(np.linalg.norm(pose[:, :3, 3] - exact, axis=1)))

@@ -229,11 +229,9 @@ def law_plan(job: ExportJob) -> CorrectionPlan:
     (pinocchio FK of the joints at the controller samples, KUKA A, B, C), from the job rather
     than by reading the file back (an 11 h job's CSV is 2.5 GB)."""
     from feedopt.robot.kuka import abc_from_rotation
-    from feedopt.robot.model import forward_kinematics
 
     motion = job.samples.motion
-    q = job.q_of_s(motion.s)
-    pose = forward_kinematics(job.robot, q)
+    q, pose = job.controller_joints, job.controller_pose
     poses = np.column_stack([pose[:, :3, 3] * MM_PER_M, abc_from_rotation(pose[:, :3, :3])])
     return plan_from_poses(motion.t, poses, np.rad2deg(q[0]), job.cycle, f"{job.law}.csv")
 

@@ -177,3 +177,24 @@ def test_tilted_tool_axis_writes_no_gcode(tmp_path, quick_scenario) -> None:
         entry["gcode_not_written"]
     assert not (tmp_path / "out" / "jerk.nc").exists()
     assert (tmp_path / "out" / "jerk.csv").is_file()
+
+
+def test_a_finely_sampled_arc_gets_chords_within_the_tolerance_not_one_per_sample() -> None:
+    """A 90 deg arc of radius 12.7 mm sampled every 5 um (the 1e5-sample scale): chords as
+    long as a 1 um sag allows (about sqrt(8 r tol) = 0.32 mm, so ~63 of them, not 4,000),
+    and every sample within the tolerance of the written polyline."""
+    from feedopt.export.gcode_out import CHORD_TOLERANCE_MM, _chord_sag_mm, _curve_chord_ends
+
+    r = 12.7
+    n = int(round(0.5 * np.pi * r / 0.005)) + 1
+    t = np.linspace(0.0, 0.5 * np.pi, n)
+    p = np.column_stack([r * np.cos(t), r * np.sin(t), np.zeros(n)])
+    kept = _curve_chord_ends(p, np.ones(n, dtype=bool))
+    kept[0] = kept[-1] = True
+    expected = 0.5 * np.pi * r / np.sqrt(8 * r * CHORD_TOLERANCE_MM)
+    assert 0.9 * expected <= kept.sum() <= 1.2 * expected + 3
+    assert _chord_sag_mm(p, kept) <= CHORD_TOLERANCE_MM * 1.05
+    # independent: distance of every sample from the circle's chords between kept points
+    idx = np.flatnonzero(kept)
+    half = np.diff(t[idx]) / 2
+    assert np.max(r * (1 - np.cos(half))) <= CHORD_TOLERANCE_MM * 1.05
