@@ -29,7 +29,7 @@ from feedopt.geometry.stage import path_from_section
 from feedopt.process.program import apply_program
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
 from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
-from feedopt.report.data import engagement_series
+from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
@@ -75,6 +75,10 @@ class Prepared:
     export_blockers: dict = field(default_factory=dict)  # {exporter: export.job.Blocker}
     # {law: why it declined this problem} (feedopt.errors.LawNotApplicable), set by planning.
     declined: dict[str, str] = field(default_factory=dict)
+    # robot.redundancy: optimise: the psi(s) profile (feedopt.robot.redundancy.RedundancyResult)
+    # and the nearest IK's compliance it is compared with
+    redundancy: object | None = None
+    nearest_compliance: np.ndarray | None = None
 
     # Shorthands for what the summary, the report and tests read most.
     @property
@@ -258,6 +262,20 @@ def prepare(
 
     t0 = time.perf_counter()
     schedule = schedule_problem(scenario, process, robot, along, placement, samples, path)
+    redundancy, nearest_compliance = None, None
+    if scenario.robot.redundancy == "optimise":
+        times["bounds"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        redundancy = _optimise_redundancy(front, base_dir, robot, along, progress)
+        nearest_compliance = along.compliance
+        along, schedule = redundancy.along, redundancy.schedule
+        times["redundancy"] = time.perf_counter() - t0
+        progress(f"[4/5] redundancy: {redundancy.status.value}: T* {redundancy.t_star_nearest:.2f}"
+                 f" s nearest -> {redundancy.t_star:.2f} s ({redundancy.gain:.2%}), psi "
+                 f"{np.degrees(redundancy.psi.min()):.1f}..{np.degrees(redundancy.psi.max()):.1f}"
+                 f" deg, {redundancy.evaluations} evaluations ({times['redundancy']:.2f} s)"
+                 + (f"; {redundancy.reason}" if redundancy.reason else ""))
+        t0 = time.perf_counter() - times["bounds"]
     v_max = schedule.bound.v_max
     warnings += feed_range_warnings(process.table, [
         ("the lowest feed of the bound", float(np.min(v_max[1:-1] if v_max.size > 2 else v_max)))
@@ -277,7 +295,36 @@ def prepare(
     return Prepared(scenario=scenario, base_dir=base_dir, path=path, samples=samples,
                     placement=placement, process=process, robot=robot, along=along,
                     schedule=schedule, stage_times=times, warnings=warnings,
-                    export_blockers=blockers)
+                    export_blockers=blockers, redundancy=redundancy,
+                    nearest_compliance=nearest_compliance)
+
+
+def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
+                         nearest: RobotAlongPath, progress: Progress):
+    """``robot.redundancy: optimise``: the rotation about the tool axis psi(s) that lowers T*
+    (:func:`feedopt.robot.redundancy.optimise_redundancy`), searched on a coarser sampling of
+    the same path and confirmed on the run's."""
+    from feedopt.robot.redundancy import RedundancyOptions, RedundancyTask, optimise_redundancy
+
+    sc = front.scenario
+    opts = sc.robot.redundancy_options
+    coarse = prepare_front(sc, base_dir, lambda _m: None, spacing_mm=opts.search_spacing_mm)
+    q_start = np.deg2rad(sc.robot.start_configuration_deg)
+    coarse_nearest = robot_along_path(robot, coarse.samples.s, coarse.placement.positions,
+                                      coarse.placement.tool_axes, q_start, sc.robot.stiffness)
+
+    def task(f: Front, along: RobotAlongPath) -> RedundancyTask:
+        return RedundancyTask(
+            f.samples.s, f.placement.positions, f.placement.tool_axes,
+            lambda a: schedule_problem(f.scenario, f.process, robot, a, f.placement,
+                                       f.samples, f.path), along)
+
+    options = RedundancyOptions(objective=opts.objective, knots=opts.knots,
+                                max_evaluations=opts.max_evaluations,
+                                path_acceleration=opts.path_acceleration)
+    with progress_bar(progress, "[4/5] redundancy") as bar:
+        return optimise_redundancy(robot, task(coarse, coarse_nearest), task(front, nearest),
+                                   sc.robot.stiffness, options, progress=bar)
 
 
 def plan_and_verify(
@@ -341,6 +388,9 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
     nominal = prepared.placement.positions
     q_start = np.deg2rad(sc.robot.start_configuration_deg)
     x_axes = _x_axes(sc, prepared.placement)
+    red = prepared.redundancy
+    if red is not None and red.x_axes is not None:  # keep the optimised psi(s)
+        x_axes, q_start = red.x_axes, red.q_start
     out: dict[str, LawResult] = {}
     def along_at(commanded: np.ndarray) -> RobotAlongPath:
         return robot_along_path(prepared.robot, samples.s, commanded,
@@ -485,9 +535,12 @@ def write_outputs(
         material = prepared.process.material
         engagement = (None if material is None
                       else engagement_series(prepared.samples, material))
+        red = (None if prepared.redundancy is None
+               else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
+                                      prepared.placement))
         drawing = background.start(lambda: write_run_report(
             out_dir, sc.name, summary, prepared.positions, prepared.samples.segment, problem,
-            series, sc.deflection.limit_mm, engagement), "drawing the report")
+            series, sc.deflection.limit_mm, engagement, red), "drawing the report")
     exporting = 0.0
     try:
         for law, entry, job in pending:

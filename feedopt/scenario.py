@@ -53,6 +53,23 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
 
+class RedundancySection(_Strict):
+    """Options of ``robot.redundancy: optimise`` (feedopt.robot.redundancy)."""
+
+    objective: Literal["time", "deflection"] = Field("time", description="minimise T* "
+                                                     "(time) or the largest deflection at "
+                                                     "the nominal feed")
+    knots: Annotated[int, Field(ge=2, le=60)] | None = Field(
+        None, description="knots of the psi(s) spline (default: one per 50 mm, 6-12)")
+    search_spacing_mm: Annotated[float, Field(gt=0, le=50, allow_inf_nan=False)] = Field(
+        1.0, description="sample spacing of the search (verified at the run's spacing)")
+    max_evaluations: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        400, description="objective evaluations (IK + bound) the search may take")
+    path_acceleration: bool = Field(True, description="keep joint accelerations within their "
+                                    "limits also when a law ramps at the full tangential "
+                                    "acceleration (false: only the velocity term)")
+
+
 class RobotSection(_Strict):
     """The robot: a directory with robot.yaml + URDF, stiffness set and start pose."""
 
@@ -65,6 +82,18 @@ class RobotSection(_Strict):
     )
     fix_tool_rotation: bool = Field(False, description="fix the rotation about the tool axis "
                                     "(6-DoF task); default: free, the milling 5-DoF task")
+    redundancy: Literal["nearest", "optimise"] = Field(
+        "nearest", description="the free rotation about the tool axis: the nearest IK "
+        "solution, or a smooth profile psi(s) optimised to make the robot stiff where the "
+        "force is (lower T*, feedopt.robot.redundancy)")
+    redundancy_options: RedundancySection = RedundancySection()
+
+    @model_validator(mode="after")
+    def _redundancy_needs_the_free_rotation(self) -> RobotSection:
+        if self.redundancy == "optimise" and self.fix_tool_rotation:
+            raise ValueError("redundancy: optimise needs the rotation about the tool axis free; "
+                             "fix_tool_rotation: true fixes it (remove one of them)")
+        return self
 
 
 class WorkpieceSection(_Strict):

@@ -164,6 +164,46 @@ def engagement_series(samples, material) -> EngagementSeries:
 
 
 @dataclass(frozen=True)
+class RedundancySeries:
+    """``robot.redundancy: optimise`` along the path, for its report figure.
+
+    s_mm, psi_deg : (n,) the rotation about the tool axis chosen, relative to the nearest IK
+    stiffness_before, stiffness_after : (n, 2) principal in-plane stiffness [N/um], stiffest
+        first, with the nearest IK and with psi(s)
+    angle_before_deg, angle_after_deg : (n,) stiffest direction from the feed direction
+    t_star_before, t_star_after : T* [s]
+    status : what the optimisation did (feedopt.robot.redundancy.RedundancyStatus value)
+    """
+
+    s_mm: np.ndarray
+    psi_deg: np.ndarray
+    stiffness_before: np.ndarray
+    stiffness_after: np.ndarray
+    angle_before_deg: np.ndarray
+    angle_after_deg: np.ndarray
+    t_star_before: float
+    t_star_after: float
+    status: str
+
+
+def redundancy_series(result, nearest_compliance: np.ndarray, placement) -> RedundancySeries:
+    """The :class:`RedundancySeries` of a :class:`feedopt.robot.redundancy.RedundancyResult`,
+    the nearest IK's compliance (n, 3, 3) and the run's placement (tool axes, feed frames)."""
+    from feedopt.robot.redundancy import stiffness_ellipses
+
+    axes, feed = placement.tool_axes, placement.frames[:, :, 0]
+    before = stiffness_ellipses(nearest_compliance, axes)
+    after = stiffness_ellipses(result.along.compliance, axes)
+    return RedundancySeries(
+        s_mm=result.s / MM, psi_deg=np.degrees(result.psi),
+        stiffness_before=before.stiffness * 1e-6, stiffness_after=after.stiffness * 1e-6,
+        angle_before_deg=np.degrees(before.angle_to(feed, axes)),
+        angle_after_deg=np.degrees(after.angle_to(feed, axes)),
+        t_star_before=result.t_star_nearest, t_star_after=result.t_star,
+        status=result.status.value)
+
+
+@dataclass(frozen=True)
 class ReportData:
     """Everything :func:`feedopt.report.html.write_report` draws.
 
@@ -189,6 +229,7 @@ class ReportData:
     deflection_limit_mm: float
     notes: tuple[str, ...] = field(default=())
     engagement: EngagementSeries | None = None
+    redundancy: RedundancySeries | None = None
 
     def __post_init__(self) -> None:
         xyz = _ro(self.path_xyz_mm, (3,), "path_xyz_mm")

@@ -286,6 +286,37 @@ def plot_engagement(data: ReportData) -> Figure | None:
     return None if data.engagement is None else engagement_figure(data.engagement)
 
 
+def plot_redundancy(data: ReportData) -> Figure | None:
+    """``robot.redundancy: optimise``: psi(s) (top), the principal in-plane stiffnesses with
+    the nearest IK and with psi(s) (middle) and the stiffest direction's angle from the feed
+    (bottom). None without the optimisation."""
+    r = data.redundancy
+    if r is None:
+        return None
+    fig = _new_figure(10, 8, 3, 1)
+    ax_psi, ax_k, ax_a = fig.subplots(3, 1, sharex=True)
+    _plot(ax_psi, r.s_mm, r.psi_deg, color="tab:purple", lw=1.2)
+    ax_psi.set_ylabel("psi [deg]")
+    ax_psi.set_title(f"rotation about the tool axis ({r.status}): T* {r.t_star_before:.2f} s "
+                     f"nearest -> {r.t_star_after:.2f} s")
+    for k, style in ((0, "-"), (1, "--")):
+        which = "stiffest" if k == 0 else "softest"
+        _plot(ax_k, r.s_mm, r.stiffness_before[:, k], color="0.5", ls=style,
+              label=f"nearest IK, {which}")
+        _plot(ax_k, r.s_mm, r.stiffness_after[:, k], color="tab:purple", ls=style,
+              label=f"psi(s), {which}")
+    ax_k.set_ylabel("in-plane stiffness [N/um]")
+    ax_k.legend(fontsize=8, loc="best")
+    _plot(ax_a, r.s_mm, r.angle_before_deg, color="0.5", lw=0.8, label="nearest IK")
+    _plot(ax_a, r.s_mm, r.angle_after_deg, color="tab:purple", lw=0.8, label="psi(s)")
+    ax_a.set_ylabel("stiffest direction\nfrom the feed [deg]")
+    ax_a.set_xlabel("s [mm]")
+    ax_a.legend(fontsize=8, loc="best")
+    for ax in (ax_psi, ax_k, ax_a):
+        ax.grid(alpha=0.3)
+    return fig
+
+
 FIGURES: tuple[FigureSpec, ...] = (
     FigureSpec(
         "path",
@@ -320,5 +351,12 @@ FIGURES: tuple[FigureSpec, ...] = (
         "Engagement from the stock: the stock's top view after the run with the path coloured "
         "by radial depth, and the entry/exit angles and axial depth along s.",
         plot_engagement,
+    ),
+    FigureSpec(
+        "redundancy",
+        "The rotation about the tool axis psi(s) chosen by robot.redundancy: optimise, the "
+        "stiffness ellipse in the plane normal to the tool axis with the nearest IK and with "
+        "psi(s) (principal stiffnesses and the stiffest direction's angle from the feed).",
+        plot_redundancy,
     ),
 )

@@ -24,7 +24,7 @@ def law_series(law: str, s: np.ndarray, verification, samples) -> LawSeries:
 
 def write_run_report(out_dir: Path, scenario_name: str, summary: dict, positions: np.ndarray,
                      sample_segment: np.ndarray, problem, series: list[LawSeries],
-                     limit_mm: float, engagement=None) -> None:
+                     limit_mm: float, engagement=None, redundancy=None) -> None:
     """report.md / report.html and their figures for one run."""
     from feedopt.report.html import write_report
 
@@ -39,5 +39,6 @@ def write_run_report(out_dir: Path, scenario_name: str, summary: dict, positions
         joint_velocity_limit_deg_s=np.rad2deg(problem.joint_velocity_max),
         deflection_limit_mm=limit_mm,
         engagement=engagement,
+        redundancy=redundancy,
     )
     write_report(out_dir, data)

@@ -69,6 +69,19 @@ def program_summary(prepared: Prepared) -> dict | None:
     }
 
 
+def _redundancy(result) -> dict | None:
+    """summary.json ``scenario.redundancy`` (robot.redundancy: optimise), or None."""
+    if result is None:
+        return None
+    return {"status": result.status.value, "reason": result.reason,
+            "objective": result.objective, "t_star_nearest_s": result.t_star_nearest,
+            "t_star_s": result.t_star, "gain": result.gain,
+            "knots_mm": (result.knot_s / MM).tolist(),
+            "knots_psi_deg": np.degrees(result.knot_psi).tolist(),
+            "evaluations": result.evaluations, "infeasible": result.infeasible,
+            "seconds": result.seconds}
+
+
 def scenario_summary(prepared: Prepared) -> dict:
     """The resolved inputs, in user units, for summary.json (design.md).
 
@@ -89,6 +102,7 @@ def scenario_summary(prepared: Prepared) -> dict:
         "description": sc.description,
         "fits": sc.fit_notes(),
         "frames": frames_summary(robot),
+        "redundancy": _redundancy(prepared.redundancy),
         "robot": {"name": robot.name, "directory": sc.robot.directory,
                   "stiffness_source": robot.sources.get("stiffness"),
                   "tool_source": robot.sources.get("tool")},

@@ -182,7 +182,7 @@ def spindle_feed_bounds(
 
 def joint_velocity_feed_bound(dq_ds: np.ndarray, joint_velocity_max: np.ndarray) -> np.ndarray:
     """Largest path velocity [m/s] with |dq/ds * sdot| <= qdot_max for every joint."""
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # a joint that does not move: inf
         return np.min(joint_velocity_max / np.abs(dq_ds), axis=1)
 
 
