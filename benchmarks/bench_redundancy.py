@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import shutil
 import sys
 import tempfile
 import time
@@ -60,18 +59,6 @@ KUKA = ROOT / "robots" / "kuka_kr500_3"
 SCENARIOS = ROOT / "scenarios"
 SIDE_START_DEG = [20.94, -46.16, 102.4, 96.19, -94.12, -33.54]
 SEARCH_MM = 1.0
-
-
-def side_robot(folder: Path) -> Path:
-    """The KR500-3 with the spindle at 90 deg to A6, in ``folder``."""
-    folder.mkdir()
-    doc = yaml.safe_load((KUKA / "robot.yaml").read_text())
-    shutil.copy(KUKA / doc["urdf"], folder / doc["urdf"])
-    doc["name"] = "kr500_3_side_spindle"
-    doc["tool"] = {"tcp_xyz_mm": [150.0, 0.0, -300.0], "tcp_rpy_deg": [0.0, 0.0, 0.0],
-                   "source": "benchmark: spindle at 90 deg to A6"}
-    (folder / "robot.yaml").write_text(yaml.safe_dump(doc))
-    return folder
 
 
 def prepared(name: str, tmp: Path, robot_dir: Path | None, depth: float | None,
@@ -181,7 +168,7 @@ def main() -> None:
     names = ["triangle_slot"] if args.quick else ["triangle_slot", "square_slot"]
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
-        side = side_robot(tmp / "side")
+        side = ROOT / "robots" / "kuka_kr500_3_side"  # the bundled hypothetical cell
         for name in names:
             laws = not args.quick
             one(name, "coaxial", tmp, None, 1.5, RedundancyOptions(), laws, out)

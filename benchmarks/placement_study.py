@@ -29,9 +29,8 @@ GRID = "workpiece.position_mm=x:1600;1750;1900,y:-300;-38.1;250,z:500;800;1100"
 THESIS_RATIO = 4.02 / 2.75  # down / up line feeds of the thesis
 
 
-def _line_feeds(prepared, results) -> tuple[float, float]:
-    """Mean thesis-law feed [mm/s] in the middle of the up and of the down lines."""
-    trajectory = results["thesis"].trajectory
+def line_feeds(prepared, trajectory) -> tuple[float, float]:
+    """Mean feed [mm/s] of ``trajectory`` in the middle of the up and of the down lines."""
     up, down = [], []
     for a, b, kind in prepared.problem.segments():
         if kind != "line":
@@ -43,11 +42,11 @@ def _line_feeds(prepared, results) -> tuple[float, float]:
 
 
 def up_feed(prepared, results) -> float:
-    return _line_feeds(prepared, results)[0]
+    return line_feeds(prepared, results["thesis"].trajectory)[0]
 
 
 def down_feed(prepared, results) -> float:
-    return _line_feeds(prepared, results)[1]
+    return line_feeds(prepared, results["thesis"].trajectory)[1]
 
 
 def _number(text: str) -> float:

@@ -47,23 +47,14 @@ from feedopt.runner import prepare  # noqa: E402
 from feedopt.scenario import load_scenario  # noqa: E402
 from feedopt.schedule.thesis import plan_thesis  # noqa: E402
 
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from placement_study import line_feeds  # noqa: E402
+
 MM = 1e-3
 NOMINAL = 4.23e-3
 THESIS_CH3, THESIS_CH4 = 0.4, 0.283  # constant-feed predictions [mm]
 quiet = lambda _m: None  # noqa: E731
 SPACING = 0.5
-
-
-def line_feeds(prepared, trajectory) -> tuple[float, float]:
-    """Mean thesis-law feed [mm/s] in the middle of the up (+y) and of the down lines."""
-    up, down = [], []
-    for a, b, kind in prepared.problem.segments():
-        if kind != "line":
-            continue
-        mid = np.array([0.5 * (a + b)])
-        ty = prepared.path.evaluate(mid).tangent[0, 1]
-        (up if ty > 0 else down).append(trajectory.feed_at(mid)[0] / MM)
-    return float(np.mean(up)), float(np.mean(down))
 
 
 def _with(scenario, depth_mm=None, stiffness=None, position=None, robot_dir=None):

@@ -13,7 +13,6 @@ import json
 
 import numpy as np
 import pytest
-import yaml
 from scipy.spatial.transform import Rotation
 
 from feedopt.errors import InputError
@@ -92,18 +91,8 @@ def test_kuka_fk_home_pose_is_the_documented_flange_pose() -> None:
 
 
 @pytest.fixture(scope="module")
-def kuka_run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("kuka")
-    doc = yaml.safe_load((ROOT / "scenarios" / "triangle_slot.yaml").read_text())
-    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
-    doc["tool"] = str(ROOT / "scenarios" / doc["tool"])
-    doc["material"] = str(ROOT / "scenarios" / doc["material"])
-    doc["path"]["spacing_mm"] = 1.0
-    doc["schedule"]["laws"] = ["thesis"]
-    p = tmp / "s.yaml"
-    p.write_text(yaml.safe_dump(doc))
-    run_scenario(p, out_dir=tmp / "out", progress=quiet, report=False)
-    return tmp / "out"
+def kuka_run(thesis_triangle_run):
+    return thesis_triangle_run.out_dir
 
 
 def test_exported_q_with_the_stated_tool_data_gives_the_exported_pose(kuka_run) -> None:

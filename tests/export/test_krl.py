@@ -24,7 +24,6 @@ from feedopt.export.krl import (
     write_krl_program,
 )
 from feedopt.robot.model import load_robot
-from feedopt.runner import run_scenario
 from tests.conftest import ROOT
 
 FRAMES = cell_frames(load_robot(ROOT / "robots" / "kuka_kr500_3"))
@@ -290,19 +289,8 @@ def test_parse_round_trip_random(tmp_path_factory, data, vel_exp, spl):
 
 
 @pytest.fixture(scope="module")
-def triangle_run(tmp_path_factory):
-    import yaml
-
-    tmp = tmp_path_factory.mktemp("tri")
-    doc = yaml.safe_load((ROOT / "scenarios" / "triangle_slot.yaml").read_text())
-    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
-    doc["tool"] = str(ROOT / "scenarios" / doc["tool"])
-    doc["material"] = str(ROOT / "scenarios" / doc["material"])
-    doc["path"]["spacing_mm"] = 1.0
-    doc["schedule"]["laws"] = ["thesis"]
-    p = tmp / "s.yaml"
-    p.write_text(yaml.safe_dump(doc))
-    return run_scenario(p, out_dir=tmp / "out", progress=lambda _m: None, report=False)
+def triangle_run(thesis_triangle_run):
+    return thesis_triangle_run
 
 
 def test_run_writes_a_program_whose_feeds_keep_the_bound(triangle_run):

@@ -10,21 +10,10 @@ ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 KUKA_DIR = ROBOTS / "kuka_kr500_3"
 UR10_DIR = ROBOTS / "ur10"
 
-# Thesis Table A.3: stiffness-calibration configurations of the KR500-3 [deg].
-TABLE_A3_DEG = np.array(
-    [
-        [19.67, -52.14, 117.9, 11.86, -66.08, -4.84],
-        [26.35, -32.54, 123.49, -8.99, -90.81, -0.15],
-        [58.28, -10.5, 105.98, 42.39, -115.04, -2.57],
-        [44.71, -70.81, 58.16, 138.51, -41.63, -125.84],
-        [-23.13, -85.41, 80.84, 70.31, 83.63, -71.78],
-        [2.39, -34.82, 69.97, 115.13, 72.1, 176.98],
-        [25.21, -55.7, 130.03, 169.88, 72.17, -179.78],
-        [42.99, -40.39, 97.42, -177.38, 72.1, -179.8],
-        [42.99, -57.91, 110.04, -155.79, 51.1, -179.83],
-        [28.12, -55.4, 84.06, -167.6, 27.07, -179.85],
-    ]
-)
+# Thesis Table A.3: stiffness-calibration configurations of the KR500-3 [deg] (one copy, in
+# scenarios/calibration, also read by its example-data script).
+TABLE_A3_DEG = np.loadtxt(ROBOTS.parent / "scenarios" / "calibration" / "thesis_table_a3_poses.csv",
+                          delimiter=",", comments="#", skiprows=2)
 
 # Recommended scenario placement (see the robot-stage report): workpiece frame W aligned
 # with the base, origin at (1747.6, -38.1, 800) mm, so the 304.8 x 76.2 mm triangle wave is

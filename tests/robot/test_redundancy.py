@@ -9,7 +9,6 @@ suggested 2.54 mm depth (with 1.5 mm this mount never reaches the 0.29 mm limit)
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -45,25 +44,21 @@ COAXIAL_START_DEG = [9.728, -64.745, 107.062, 0.0, 47.682, 0.0]
 LOOP_CSV = "x_mm,y_mm,z_mm\n0,0,0\n120,0,0\n120,80,0\n0,80,0\n0,0,0\n"
 
 
+# The bundled hypothetical cell: the KR500-3 with its spindle at 90 deg to A6.
+SIDE_DIR = ROOT / "robots" / "kuka_kr500_3_side"
+
+
 @pytest.fixture(scope="module")
 def cell(tmp_path_factory) -> Path:
-    """A folder with the side-mounted-spindle robot and the closed path."""
+    """A folder for the scenarios and the closed path."""
     root = tmp_path_factory.mktemp("redundancy")
-    robot_dir = root / "side"
-    robot_dir.mkdir()
-    doc = yaml.safe_load((KUKA_DIR / "robot.yaml").read_text())
-    shutil.copy(KUKA_DIR / doc["urdf"], robot_dir / doc["urdf"])
-    doc["name"] = "kr500_3_side_spindle"
-    doc["tool"] = {"tcp_xyz_mm": [150.0, 0.0, -300.0], "tcp_rpy_deg": [0.0, 0.0, 0.0],
-                   "source": "test: spindle at 90 deg to A6"}
-    (robot_dir / "robot.yaml").write_text(yaml.safe_dump(doc))
     (root / "loop.csv").write_text(LOOP_CSV)
     return root
 
 
 def _prepared(cell: Path, name: str, spacing: float, side: bool, depth: float, loop=False):
     doc = yaml.safe_load((SCENARIOS / "triangle_slot.yaml").read_text())
-    doc["robot"]["directory"] = str(cell / "side" if side else KUKA_DIR)
+    doc["robot"]["directory"] = str(SIDE_DIR if side else KUKA_DIR)
     doc["robot"]["start_configuration_deg"] = SIDE_START_DEG if side else COAXIAL_START_DEG
     doc["tool"] = str(SCENARIOS / doc["tool"])
     doc["material"] = str(SCENARIOS / doc["material"])
