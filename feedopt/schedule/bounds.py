@@ -24,9 +24,10 @@ from typing import Protocol
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.parallel import for_each_chunk
 from feedopt.process.forces import critical_angles
 from feedopt.registry import add_unique
-from feedopt.schedule.deflection import DeflectionModel, norm3
+from feedopt.schedule.deflection import AngleTerms, DeflectionModel
 from feedopt.units import MM
 
 
@@ -91,14 +92,21 @@ class FeedBound:
 
 def _upper_roots_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
     """Per angle, the largest c with |c a + b| <= limit (``inf`` without cutting force)."""
-    qa = np.einsum("...i,...i->...", a, a)
-    qb = np.einsum("...i,...i->...", a, b)
-    qc = np.einsum("...i,...i->...", b, b) - limit * limit  # <= 0 where feasible at c = 0
-    disc = np.sqrt(np.maximum(qb * qb - qa * qc, 0.0))
-    # Upper root (-qb + disc) / qa, written without cancellation for qb > 0.
+    return _upper_roots_quadratic(np.einsum("...i,...i->...", a, a),
+                                  np.einsum("...i,...i->...", a, b),
+                                  np.einsum("...i,...i->...", b, b), limit)
+
+
+def _upper_roots_quadratic(aa: np.ndarray, ab: np.ndarray, bb: np.ndarray,
+                           limit: float) -> np.ndarray:
+    """Per angle, the largest c with c^2 aa + 2 c ab + bb <= limit^2, i.e. |c a + b| <= limit
+    given aa = |a|^2, ab = a.b, bb = |b|^2 (``inf`` without cutting force, aa = 0)."""
+    qc = bb - limit * limit  # <= 0 where feasible at c = 0
+    disc = np.sqrt(np.maximum(ab * ab - aa * qc, 0.0))
+    # Upper root (-ab + disc) / aa, written without cancellation for ab > 0.
     with np.errstate(divide="ignore", invalid="ignore"):
-        root = np.where(qb > 0, -qc / (qb + disc), (disc - qb) / qa)
-    root = np.where(qa > 0, root, np.inf)
+        root = np.where(ab > 0, -qc / (ab + disc), (disc - ab) / aa)
+    root = np.where(aa > 0, root, np.inf)
     return np.where(np.isnan(root), 0.0, root)
 
 
@@ -106,6 +114,13 @@ def _upper_roots_projected(a: np.ndarray, b: np.ndarray, limit: float) -> np.nda
     """Per angle, the largest c with |c a + b| <= limit for scalar a, b."""
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(a > 0, (limit - b) / a, np.where(a < 0, (-limit - b) / a, np.inf))
+
+
+def upper_roots(terms: AngleTerms, limit: float) -> np.ndarray:
+    """Per sample and angle (k, M), the largest c with the limited deflection <= limit."""
+    if terms.quadratic:
+        return _upper_roots_quadratic(terms.aa, terms.ab, terms.bb, limit)
+    return _upper_roots_projected(terms.a, terms.b, limit)
 
 
 def largest_feed_per_tooth_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
@@ -140,20 +155,17 @@ def deflection_feed_bound(model: DeflectionModel, limit: float) -> tuple[np.ndar
     c_max = np.empty(model.n)
     zero = np.empty(model.n)
 
-    def root(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Per-angle largest c (before the minimum over angles), shape (k, M)."""
-        if b.ndim == 3:
-            return _upper_roots_norm(a, b, limit)
-        return _upper_roots_projected(a, b, limit)
+    def window(s_: slice | np.ndarray, w: np.ndarray) -> AngleTerms:
+        return AngleTerms.from_vectors(w, *model.at_angles(s_, w))
 
-    def zero_feed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return norm3(b) if b.ndim == 3 else np.abs(b)
+    def bound(sl: slice | np.ndarray) -> None:
+        terms = model.angle_terms(sl)
+        zero[sl] = model.refine(sl, terms.angles, terms.zero_feed(), "max",
+                                lambda s_, w: window(s_, w).zero_feed())
+        c_max[sl] = model.refine(sl, terms.angles, upper_roots(terms, limit), "min",
+                                 lambda s_, w: upper_roots(window(s_, w), limit))
 
-    for sl, angles, a, b in model.chunks():
-        zero[sl] = model.refine(sl, angles, zero_feed(a, b), "max",
-                                lambda s_, w: zero_feed(*model.at_angles(s_, w)))
-        c_max[sl] = model.refine(sl, angles, root(a, b), "min",
-                                 lambda s_, w: root(*model.at_angles(s_, w)))
+    for_each_chunk(bound, model.sample_chunks(model.chunk_size()))
     return np.maximum(c_max, 0.0) * model.feed_per_unit_c, zero
 
 
@@ -165,7 +177,7 @@ def spindle_feed_bounds(
     omega = model.rpm * 2.0 * np.pi / 60.0
     v_t = np.empty(model.n)
     v_p = np.empty(model.n)
-    for sl in model.sample_chunks(8192):
+    def bound(sl: slice | np.ndarray) -> None:
         idx = np.arange(model.n)[sl]
         split, row = model.forces(idx)
         crit = critical_angles(model.tool, model.engagement_slice(sl), model.axial_slices)
@@ -177,6 +189,8 @@ def spindle_feed_bounds(
             cp = np.where(tc > 0, (power_max / omega - te) / tc, np.inf).min(axis=1)
         v_t[sl] = ct * model.feed_per_unit_c
         v_p[sl] = cp * model.feed_per_unit_c
+
+    for_each_chunk(bound, model.sample_chunks(8192))
     return v_t, v_p
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedopt.parallel import for_each_chunk
 from feedopt.process.averages import average_forces
 from feedopt.process.forces import (
     CuttingCoefficients,
@@ -145,6 +146,16 @@ class DeflectionModel:
         evaluated once: the forces depend on them only, not on the pose. Results are those
         of the per-sample evaluation exactly (each row is computed alone).
         """
+        split, row = self.distinct_forces_at(sl, angles)
+        if row is None:
+            return split
+        return ForceSplit(np.asarray(angles), split.cutting[row], split.edge[row],
+                          split.cutting_torque[row], split.edge_torque[row])
+
+    def distinct_forces_at(self, sl: slice | np.ndarray, angles: np.ndarray
+                           ) -> tuple[ForceSplit, np.ndarray | None]:
+        """:meth:`forces_at` before expansion: the split over the distinct (engagement,
+        angles) rows and, per sample, the row it uses (None: one row per sample)."""
         eng = self.engagement_slice(sl)
         if eng.pieces is None and eng.n > 1:
             first, row = _same_rows(np.column_stack([eng.entry, eng.exit, eng.axial_depth,
@@ -153,36 +164,100 @@ class DeflectionModel:
                 split = milling_forces_at(
                     self.tool, self.coefficients, eng.take(first), np.asarray(angles)[first],
                     axial_slices=self.axial_slices)
-                return ForceSplit(np.asarray(angles), split.cutting[row], split.edge[row],
-                                  split.cutting_torque[row], split.edge_torque[row])
+                return split, row
         return milling_forces_at(self.tool, self.coefficients, eng, angles,
-                                 axial_slices=self.axial_slices)
+                                 axial_slices=self.axial_slices), None
 
     def at_angles(self, sl: slice | np.ndarray, angles: np.ndarray):
         """``a``, ``b`` of samples ``sl`` at per-sample rotation angles (k, j)."""
         split = self.forces_at(sl, angles)
         return self._project(sl, split.cutting, split.edge)
 
-    def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray, np.ndarray]]:
-        """Yield ``(samples, angles, a, b)`` over the uniform grid joined with every angle at
-        which a slice enters or leaves the cut (where the force jumps, so the maximum over a
-        revolution sits there or on a smooth part between them).
+    def chunk_size(self) -> int:
+        """Samples per chunk of :meth:`chunks`: a (chunk, angles, 3) array stays ~35 MB."""
+        n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
+        return max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
+
+    def terms(self, sl: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(angles, a, b)`` of samples ``sl`` over the uniform grid joined with every angle
+        at which a slice enters or leaves the cut (where the force jumps, so the maximum over
+        a revolution sits there or on a smooth part between them).
 
         ``angles`` is (k, M) per sample; ``a`` and ``b`` have shape (k, M, 3) in the base
         frame [m/m and m], or (k, M) when the mode projects on a direction.
         """
-        n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
-        chunk = max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
-        for sl in self.sample_chunks(chunk):
-            idx = np.arange(self.n)[sl]
-            split, row = self.forces(idx)
-            a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])
-            crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
-            a_crit, b_crit = self.at_angles(sl, crit)
-            grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
-            yield (sl, np.concatenate([grid, crit], axis=1),
-                   np.concatenate([a_grid, a_crit], axis=1),
-                   np.concatenate([b_grid, b_crit], axis=1))
+        idx = np.arange(self.n)[sl]
+        split, row = self.forces(idx)
+        a_grid, b_grid = self._project(sl, split.cutting[row], split.edge[row])
+        crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
+        a_crit, b_crit = self.at_angles(sl, crit)
+        grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
+        return (np.concatenate([grid, crit], axis=1), np.concatenate([a_grid, a_crit], axis=1),
+                np.concatenate([b_grid, b_crit], axis=1))
+
+    def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray, np.ndarray]]:
+        """Yield ``(samples, angles, a, b)`` chunk by chunk (:meth:`terms`), in order."""
+        for sl in self.sample_chunks(self.chunk_size()):
+            yield (sl, *self.terms(sl))
+
+    def angle_terms(self, sl: slice | np.ndarray) -> AngleTerms:
+        """What the bound and the replay need of samples ``sl`` over the angles of
+        :meth:`terms` (same angles, same values up to rounding), without forming a and b.
+
+        A slot has one engagement, so its forces over the angles are the same at every
+        sample and only the pose differs: with G = (C R)^T (C R) (3 x 3, per sample),
+        |a|^2 = Fc^T G Fc, a.b = Fc^T G Fe and |b|^2 = Fe^T G Fe, which for all samples sharing
+        a force row is one matrix product (g, 6) x (6, 3 M) (a directional limit: w = (C R)^T u
+        and a_n = w . Fc, (g, 3) x (3, 2 M)). Samples that share little (a stock's
+        engagement changing every sample, pieced samples) and the residual mode take the
+        direct route of :meth:`terms`.
+        """
+        idx = np.arange(self.n)[sl]
+        split, row = self.forces(idx)
+        crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
+        crit_split, crit_row = self.distinct_forces_at(sl, crit)
+        grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
+        parts = [self._reduced(sl, split.cutting, split.edge, row),
+                 self._reduced(sl, crit_split.cutting, crit_split.edge,
+                               np.arange(idx.size) if crit_row is None else crit_row)]
+        angles = np.concatenate([grid, crit], axis=1)
+        return AngleTerms(angles, *(None if p[0] is None else
+                                    np.concatenate([p[0], p[1]], axis=1)
+                                    for p in zip(*parts, strict=True)))
+
+    def _reduced(self, sl: slice | np.ndarray, cutting: np.ndarray, edge: np.ndarray,
+                 row: np.ndarray) -> tuple[np.ndarray | None, ...]:
+        """``(aa, ab, bb, a, b)`` of :class:`AngleTerms` from forces over distinct rows
+        (U, M, 3) and the row of each of the k samples (:meth:`angle_terms`)."""
+        k, m = row.size, cutting.shape[1]
+        n_rows = cutting.shape[0]
+        if self.mode == "residual" or n_rows > max(1, k // 8):
+            a, b = self._project(sl, cutting[row], edge[row])
+            return AngleTerms.from_vectors(np.empty((k, m)), a, b).values()
+        cr = self.compliance[sl] @ self.frames[sl]  # (k, 3, 3): force-model frame -> d
+        order = np.argsort(row, kind="stable")
+        bounds = np.searchsorted(row[order], np.arange(n_rows + 1))
+        if self.mode == "norm":
+            gram = np.einsum("kji,kjl->kil", cr, cr)
+            weights = np.stack([gram[:, 0, 0], gram[:, 1, 1], gram[:, 2, 2], 2.0 * gram[:, 0, 1],
+                                2.0 * gram[:, 0, 2], 2.0 * gram[:, 1, 2]], axis=1)  # (k, 6)
+            out = np.empty((k, 3 * m))
+            for u in range(n_rows):
+                members = order[bounds[u]:bounds[u + 1]]
+                if members.size:
+                    fc, fe = cutting[u], edge[u]
+                    products = np.concatenate(
+                        [_sym_products(fc, fc), _sym_products(fc, fe), _sym_products(fe, fe)],
+                        axis=1)  # (6, 3 m)
+                    out[members] = weights[members] @ products
+            return out[:, :m], out[:, m:2 * m], out[:, 2 * m:], None, None
+        w = np.einsum("kji,kj->ki", cr, self._directions(sl))  # (k, 3): a_n = w . Fc
+        out = np.empty((k, 2 * m))
+        for u in range(n_rows):
+            members = order[bounds[u]:bounds[u + 1]]
+            if members.size:
+                out[members] = w[members] @ np.concatenate([cutting[u].T, edge[u].T], axis=1)
+        return None, None, None, out[:, :m], out[:, m:]
 
     @property
     def _step(self) -> float:
@@ -276,11 +351,14 @@ class DeflectionModel:
             d = c[:, None, None] * a + b if a.ndim == 3 else c[:, None] * a + b
             return norm3(d) if d.ndim == 3 else np.abs(d)
 
-        for sl, angles, a, b in self.chunks():
+        def replay(sl: slice | np.ndarray) -> None:
+            terms = self.angle_terms(sl)
             for row, c in enumerate(c_all[:, sl]):
                 out[row, sl] = self.refine(
-                    sl, angles, magnitude(c, a, b), "max",
+                    sl, terms.angles, terms.magnitude(c), "max",
                     lambda s_, w, c=c: magnitude(c, *self.at_angles(s_, w)))
+
+        for_each_chunk(replay, self.sample_chunks(self.chunk_size()))
         return out.reshape(np.shape(feed))
 
 
@@ -289,6 +367,58 @@ def norm3(d: np.ndarray) -> np.ndarray:
     generic reduction)."""
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     return np.sqrt(x * x + y * y + z * z)
+
+
+def _sym_products(f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """(6, M) products of two (M, 3) force series such that, with the weights
+    (G00, G11, G22, 2 G01, 2 G02, 2 G12) of a symmetric G, their dot product is f^T G g."""
+    return np.stack([f[:, 0] * g[:, 0], f[:, 1] * g[:, 1], f[:, 2] * g[:, 2],
+                     0.5 * (f[:, 0] * g[:, 1] + f[:, 1] * g[:, 0]),
+                     0.5 * (f[:, 0] * g[:, 2] + f[:, 2] * g[:, 0]),
+                     0.5 * (f[:, 1] * g[:, 2] + f[:, 2] * g[:, 1])])
+
+
+@dataclass(frozen=True)
+class AngleTerms:
+    """d(phi) = c a(phi) + b(phi) of k samples at M angles each, reduced to what the feed
+    bound and the replay use: |d|^2 = c^2 aa + 2 c ab + bb (modes on |d|: ``aa``, ``ab``,
+    ``bb``) or the projected d_n = c a + b (``a``, ``b``); every array (k, M).
+    """
+
+    angles: np.ndarray
+    aa: np.ndarray | None = None
+    ab: np.ndarray | None = None
+    bb: np.ndarray | None = None
+    a: np.ndarray | None = None
+    b: np.ndarray | None = None
+
+    @classmethod
+    def from_vectors(cls, angles: np.ndarray, a: np.ndarray, b: np.ndarray) -> AngleTerms:
+        """From ``a``, ``b`` as :meth:`DeflectionModel.terms` gives them ((k, M, 3) or (k, M))."""
+        if a.ndim == 3:
+            return cls(angles, np.einsum("kmi,kmi->km", a, a), np.einsum("kmi,kmi->km", a, b),
+                       np.einsum("kmi,kmi->km", b, b))
+        return cls(angles, a=a, b=b)
+
+    def values(self) -> tuple[np.ndarray | None, ...]:
+        """``(aa, ab, bb, a, b)``."""
+        return self.aa, self.ab, self.bb, self.a, self.b
+
+    @property
+    def quadratic(self) -> bool:
+        """True for the modes on |d| (``aa``, ``ab``, ``bb`` set)."""
+        return self.aa is not None
+
+    def magnitude(self, c: np.ndarray) -> np.ndarray:
+        """The limited deflection |d| (or |d_n|) [m] at feed per tooth ``c`` (k,) [m]."""
+        if self.quadratic:
+            square = (c * c)[:, None] * self.aa + (2.0 * c)[:, None] * self.ab + self.bb
+            return np.sqrt(np.maximum(square, 0.0))
+        return np.abs(c[:, None] * self.a + self.b)
+
+    def zero_feed(self) -> np.ndarray:
+        """The deflection [m] of the edge forces alone (c = 0)."""
+        return np.sqrt(np.maximum(self.bb, 0.0)) if self.quadratic else np.abs(self.b)
 
 
 _HASH_WEIGHTS = np.random.default_rng(20261202).uniform(0.5, 1.5, 4096)

@@ -1,0 +1,64 @@
+"""Chunks of samples on every core: a thread pool for the numpy-heavy per-chunk loops.
+
+The deflection bound and the replay go over the path in chunks of samples (memory stays
+bounded by a chunk). Each chunk is large numpy work (matrix products, ufuncs, sorts) that
+releases the GIL, so threads run chunks side by side on several cores without copying
+anything; each chunk writes only its own samples, so the result does not depend on the
+number of threads or on the order in which chunks finish.
+
+``FEEDOPT_THREADS`` caps the threads (``1``: everything in the caller, as before); the default
+is the number of cores this process may use.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Environment variable that caps the worker threads of :func:`for_each_chunk`.
+THREADS_ENV = "FEEDOPT_THREADS"
+
+
+def worker_threads() -> int:
+    """Threads for chunk loops: ``FEEDOPT_THREADS`` if set (>= 1), else the usable cores."""
+    value = os.environ.get(THREADS_ENV, "").strip()
+    if value:
+        try:
+            return max(1, int(value))
+        except ValueError:
+            pass  # a malformed value: the default, as for an unset variable
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def for_each_chunk(work: Callable[[T], R], chunks: Iterable[T],
+                   threads: int | None = None) -> list[R]:
+    """``[work(c) for c in chunks]``, the calls spread over ``threads`` threads.
+
+    At most ``2 * threads`` chunks are in flight, so memory stays that of a few chunks. The
+    first exception raised by ``work`` is raised here (after the running chunks end).
+    """
+    threads = worker_threads() if threads is None else max(1, threads)
+    if threads == 1:
+        return [work(c) for c in chunks]
+    results: list[R] = []
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="feedopt-chunk") as pool:
+        pending = []
+        try:
+            for c in chunks:
+                pending.append(pool.submit(work, c))
+                if len(pending) >= 2 * threads:
+                    results.append(pending.pop(0).result())
+            results.extend(f.result() for f in pending)
+        except BaseException:
+            for f in pending:  # what has not started yet never will
+                f.cancel()
+            raise
+    return results

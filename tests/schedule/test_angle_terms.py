@@ -1,0 +1,62 @@
+"""The reduced per-angle terms (Gram-matrix route of DeflectionModel.angle_terms) against
+the direct vectors a(phi), b(phi) of DeflectionModel.terms, and the threaded chunk loops
+against a serial run."""
+
+import numpy as np
+import pytest
+
+from feedopt.process.forces import Engagement
+from feedopt.schedule import deflection as deflection_module
+from feedopt.schedule.bounds import BoundInputs, feed_bound
+
+from .test_deflection import _model
+
+
+def _two_engagements(n: int) -> Engagement:
+    """Half the samples in a full slot, half in a 60 deg down cut: two shared force rows."""
+    entry = np.where(np.arange(n) % 2 == 0, 0.0, np.deg2rad(120.0))
+    return Engagement(entry=entry, exit=np.full(n, np.pi), axial_depth=np.full(n, 2.54e-3))
+
+
+@pytest.mark.parametrize("mode", ["norm", "normal", "direction", "residual"])
+@pytest.mark.parametrize("shared", ["slot", "two"])
+def test_reduced_terms_equal_the_direct_vectors(mode: str, shared: str) -> None:
+    n = 64
+    model = _model(n=n, mode=mode, engagement=None if shared == "slot" else _two_engagements(n))
+    if mode == "direction":
+        model = deflection_module.DeflectionModel(**{**model.__dict__,
+                                                     "direction": np.array([1.0, 2.0, 0.5])})
+    sl = slice(0, n)
+    terms = model.angle_terms(sl)
+    angles, a, b = model.terms(sl)
+    np.testing.assert_array_equal(terms.angles, angles)
+    if a.ndim == 3:  # |a|^2, a.b, |b|^2 written out, independent of the reduced route
+        ref = {"aa": (a * a).sum(-1), "ab": (a * b).sum(-1), "bb": (b * b).sum(-1)}
+    else:
+        ref = {"a": a, "b": b}
+    for name, want in ref.items():
+        got = getattr(terms, name)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+    c = np.linspace(0.0, 2e-4, n)
+    direct = (np.linalg.norm(c[:, None, None] * a + b, axis=-1) if a.ndim == 3
+              else np.abs(c[:, None] * a + b))
+    np.testing.assert_allclose(terms.magnitude(c), direct, rtol=1e-10,
+                               atol=1e-12 * direct.max())
+
+
+def test_threads_give_the_serial_result_bit_for_bit(monkeypatch) -> None:
+    """Chunks of 5 samples over several threads: the bound and the replay are those of one
+    thread, exactly (each chunk writes only its own samples)."""
+    n = 53
+    model = _model(n=n, engagement=_two_engagements(n))
+    monkeypatch.setattr(deflection_module, "_CHUNK", 5)
+    feeds = np.linspace(1e-3, 6e-3, 2 * n).reshape(2, n)
+    results = []
+    for threads in ("1", "3"):
+        monkeypatch.setenv("FEEDOPT_THREADS", threads)
+        inputs = BoundInputs(model=model, limit=0.29e-3, max_feed=np.inf,
+                             dq_ds=np.zeros((n, 6)), joint_velocity_max=np.ones(6))
+        bound = feed_bound(inputs)
+        results.append((bound.v_max, bound.zero_feed_deflection, model.deflection(feeds)))
+    for serial, threaded in zip(*results, strict=True):
+        np.testing.assert_array_equal(serial, threaded)

@@ -1,0 +1,47 @@
+"""feedopt.parallel: order, exceptions and the thread count."""
+
+import threading
+
+import pytest
+
+from feedopt.parallel import for_each_chunk, worker_threads
+
+
+def test_results_in_order_on_several_threads() -> None:
+    seen = set()
+
+    def work(i: int) -> int:
+        seen.add(threading.current_thread().name)
+        return i * i
+
+    assert for_each_chunk(work, range(40), threads=3) == [i * i for i in range(40)]
+    assert all(name.startswith("feedopt-chunk") for name in seen)
+
+
+def test_one_thread_runs_in_the_caller() -> None:
+    names = for_each_chunk(lambda _i: threading.current_thread().name, range(3), threads=1)
+    assert names == [threading.current_thread().name] * 3
+
+
+def test_the_first_exception_is_raised_and_later_chunks_do_not_start() -> None:
+    started = []
+
+    def work(i: int) -> int:
+        started.append(i)
+        if i == 2:
+            raise ValueError("chunk 2")
+        return i
+
+    with pytest.raises(ValueError, match="chunk 2"):
+        for_each_chunk(work, range(1000), threads=2)
+    assert len(started) < 1000
+
+
+@pytest.mark.parametrize(("value", "want"), [("1", 1), ("4", 4), ("0", 1), ("x", None)])
+def test_thread_count_from_the_environment(monkeypatch, value: str, want: int | None) -> None:
+    monkeypatch.setenv("FEEDOPT_THREADS", value)
+    got = worker_threads()
+    if want is None:  # malformed: the default (usable cores)
+        monkeypatch.delenv("FEEDOPT_THREADS")
+        want = worker_threads()
+    assert got == want
