@@ -523,7 +523,7 @@ def write_outputs(
                 samples=samples, cycle=cycle, limit_mm=sc.deflection.limit_mm,
                 unverified_on_request=not ver.exportable,
                 native_program=bool(spec is not None and spec.native_program),
-                blockers=prepared.export_blockers,
+                blockers=prepared.export_blockers, tool_axes=prepared.placement.tool_axes,
             )
             pending.append((law, entry, job))
         times[("export", law)] = time.perf_counter() - t0

@@ -228,10 +228,8 @@ def _chord_sag_mm(p: np.ndarray, kept: np.ndarray) -> float:
 
 def export_gcode(job: ExportJob, out_dir: Path) -> dict:
     """Write ``<law>.nc`` (the generated path in the base frame), or say why not."""
-    from feedopt.robot.model import forward_kinematics
-
     problem = job.problem
-    z_axes = forward_kinematics(job.robot, problem.q)[:, :3, 2]
+    z_axes = job.sample_tool_axes
     tilt = float(np.degrees(np.arccos(np.clip(z_axes[:, 2].min(), -1.0, 1.0))))
     if tilt > AXIS_TOLERANCE_DEG:
         return {"gcode_program": None,

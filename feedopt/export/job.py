@@ -76,6 +76,8 @@ class ExportJob:
     compensation : with ``deflection.mode: residual``, the nominal and commanded paths at the
         path samples (:class:`feedopt.schedule.compensation.CompensatedSamples`); the pose
         columns and ``path_in_base`` are then the commanded path.
+    tool_axes : (n, 3) unit tool axis at the path samples in the base frame (what the IK
+        holds), shared by every law's job; None: from the FK of ``problem.q``.
     """
 
     law: str
@@ -93,6 +95,7 @@ class ExportJob:
     native_program: bool = False
     blockers: dict[str, Blocker] = field(default_factory=dict)
     compensation: object | None = None
+    tool_axes: np.ndarray | None = None
 
     @cached_property
     def controller_joints(self) -> np.ndarray:
@@ -107,6 +110,16 @@ class ExportJob:
         from feedopt.robot.model import forward_kinematics
 
         return forward_kinematics(self.robot, self.controller_joints)
+
+    @cached_property
+    def sample_tool_axes(self) -> np.ndarray:
+        """(n, 3) tool axis at the path samples, base frame: :attr:`tool_axes` or the FK of
+        the path joints."""
+        if self.tool_axes is not None:
+            return self.tool_axes
+        from feedopt.robot.model import forward_kinematics
+
+        return forward_kinematics(self.robot, self.problem.q)[:, :3, 2]
 
 
 @dataclass(frozen=True)
