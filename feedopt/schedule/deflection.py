@@ -353,13 +353,40 @@ class DeflectionModel:
 
         def replay(sl: slice | np.ndarray) -> None:
             terms = self.angle_terms(sl)
+            windows = _WindowMemo(self, sl)  # the laws' refinement windows mostly coincide
             for row, c in enumerate(c_all[:, sl]):
                 out[row, sl] = self.refine(
                     sl, terms.angles, terms.magnitude(c), "max",
-                    lambda s_, w, c=c: magnitude(c, *self.at_angles(s_, w)))
+                    lambda s_, w, c=c: magnitude(c, *windows.at_angles(s_, w)))
 
         for_each_chunk(replay, self.sample_chunks(self.chunk_size()))
         return out.reshape(np.shape(feed))
+
+
+class _WindowMemo:
+    """``a``, ``b`` at the refinement angles of one chunk, kept from one timing law to the
+    next: where a sample's worst grid angle is the same for both laws (most samples), its
+    window is the same and is not evaluated again. Only windows (more than one angle per
+    sample) are kept: the parabola vertex differs from law to law."""
+
+    def __init__(self, model: DeflectionModel, sl: slice | np.ndarray) -> None:
+        self.model, self.index = model, np.arange(model.n)[sl]
+        self.last: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def at_angles(self, sl: slice | np.ndarray, angles: np.ndarray):
+        if angles.shape[1] < 2:
+            return self.model.at_angles(sl, angles)
+        last = self.last
+        if last is None or last[0].shape != angles.shape:
+            a, b = self.model.at_angles(sl, angles)
+        else:
+            rows = np.flatnonzero(np.any(last[0] != angles, axis=1))
+            a, b = last[1], last[2]
+            if rows.size:
+                a, b = a.copy(), b.copy()
+                a[rows], b[rows] = self.model.at_angles(self.index[rows], angles[rows])
+        self.last = (angles.copy(), a, b)
+        return a, b
 
 
 def norm3(d: np.ndarray) -> np.ndarray:

@@ -60,3 +60,16 @@ def test_threads_give_the_serial_result_bit_for_bit(monkeypatch) -> None:
         results.append((bound.v_max, bound.zero_feed_deflection, model.deflection(feeds)))
     for serial, threaded in zip(*results, strict=True):
         np.testing.assert_array_equal(serial, threaded)
+
+
+def test_several_laws_replay_as_each_alone() -> None:
+    """The replay of several feed profiles at once (forces per chunk and refinement windows
+    shared between them) gives each profile's replay alone."""
+    n = 40
+    model = _model(n=n, engagement=_two_engagements(n))
+    rng = np.random.default_rng(11)
+    feeds = np.vstack([np.linspace(1e-3, 6e-3, n), np.full(n, 3e-3),
+                       rng.uniform(1e-3, 6e-3, n), np.linspace(1e-3, 6e-3, n)[::-1]])
+    together = model.deflection(feeds)
+    alone = np.vstack([model.deflection(f) for f in feeds])
+    np.testing.assert_allclose(together, alone, rtol=1e-14, atol=0)
