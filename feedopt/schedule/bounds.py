@@ -25,7 +25,6 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
-from feedopt.process.forces import critical_angles
 from feedopt.registry import add_unique
 from feedopt.schedule.deflection import AngleTerms, DeflectionModel
 from feedopt.units import MM
@@ -177,18 +176,21 @@ def spindle_feed_bounds(
     omega = model.rpm * 2.0 * np.pi / 60.0
     v_t = np.empty(model.n)
     v_p = np.empty(model.n)
-    def bound(sl: slice | np.ndarray) -> None:
-        idx = np.arange(model.n)[sl]
-        split, row = model.forces(idx)
-        crit = critical_angles(model.tool, model.engagement_slice(sl), model.axial_slices)
-        at = model.forces_at(sl, crit)
-        tc = np.concatenate([split.cutting_torque[row], at.cutting_torque], axis=1)
-        te = np.concatenate([split.edge_torque[row], at.edge_torque], axis=1)
+    def smallest(tc: np.ndarray, te: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per row, the largest c within the torque and the power limits over the angles."""
         with np.errstate(divide="ignore", invalid="ignore"):
             ct = np.where(tc > 0, (torque_max - te) / tc, np.inf).min(axis=1)
             cp = np.where(tc > 0, (power_max / omega - te) / tc, np.inf).min(axis=1)
-        v_t[sl] = ct * model.feed_per_unit_c
-        v_p[sl] = cp * model.feed_per_unit_c
+        return ct, cp
+
+    def bound(sl: slice | np.ndarray) -> None:
+        # per distinct force row (a slot has one), then per sample: the same numbers as
+        # per sample, without repeating them
+        f = model.chunk_forces(sl)
+        grid_t, grid_p = smallest(f.grid.cutting_torque, f.grid.edge_torque)
+        crit_t, crit_p = smallest(f.at_critical.cutting_torque, f.at_critical.edge_torque)
+        v_t[sl] = np.minimum(grid_t[f.grid_row], crit_t[f.critical_row]) * model.feed_per_unit_c
+        v_p[sl] = np.minimum(grid_p[f.grid_row], crit_p[f.critical_row]) * model.feed_per_unit_c
 
     for_each_chunk(bound, model.sample_chunks(8192))
     return v_t, v_p

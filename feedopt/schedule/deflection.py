@@ -37,6 +37,20 @@ _CHUNK_ELEMENTS = _CHUNK * 360
 
 
 @dataclass(frozen=True)
+class ChunkForces:
+    """Forces of a chunk of k samples over their distinct rows (:meth:`DeflectionModel.
+    chunk_forces`): ``grid`` on the uniform angle grid with ``grid_row`` (k,) the row of each
+    sample; ``critical`` (k, K) each sample's critical angles and ``at_critical`` the forces
+    there with ``critical_row`` (k,)."""
+
+    grid: ForceSplit
+    grid_row: np.ndarray
+    critical: np.ndarray
+    at_critical: ForceSplit
+    critical_row: np.ndarray
+
+
+@dataclass(frozen=True)
 class DeflectionModel:
     """Everything needed to evaluate d(phi) = c a(phi) + b(phi) along the path.
 
@@ -81,21 +95,46 @@ class DeflectionModel:
 
         Returns the split over the distinct rows and, per sample, the row it uses.
         """
-        e = self.engagement
-        if e.pieces is not None:  # pieced samples: no shared rows to find
-            split = milling_forces(self.tool, self.coefficients, e.take(index), self.angles,
-                                   axial_slices=self.axial_slices)
+        distinct = self.distinct_engagements(index)
+        if distinct is None:  # pieced samples: no shared rows to find
+            split = milling_forces(self.tool, self.coefficients, self.engagement.take(index),
+                                   self.angles, axial_slices=self.axial_slices)
             return split, np.arange(index.size)
+        unique, inverse = distinct
+        return milling_forces(self.tool, self.coefficients, unique, self.angles,
+                              axial_slices=self.axial_slices), inverse
+
+    def distinct_engagements(self, index: np.ndarray) -> tuple[Engagement, np.ndarray] | None:
+        """The distinct (entry, exit, depth) rows of samples ``index`` and, per sample, the
+        row it has; None for pieced engagements (a sample's pieces are its own)."""
+        e = self.engagement
+        if e.pieces is not None:
+            return None
         rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index]], axis=1)
         unique, inverse = np.unique(rows, axis=0, return_inverse=True)
-        split = milling_forces(
-            self.tool,
-            self.coefficients,
-            Engagement(entry=unique[:, 0], exit=unique[:, 1], axial_depth=unique[:, 2]),
-            self.angles,
-            axial_slices=self.axial_slices,
-        )
-        return split, inverse.ravel()
+        return (Engagement(entry=unique[:, 0], exit=unique[:, 1], axial_depth=unique[:, 2]),
+                inverse.ravel())
+
+    def chunk_forces(self, sl: slice | np.ndarray) -> ChunkForces:
+        """Forces of samples ``sl`` on the angle grid and at their critical angles (where a
+        slice enters or leaves the cut), each over the distinct engagements: a slot's chunk
+        has one, so both are computed once, not per sample (the same numbers: every row is
+        computed alone)."""
+        idx = np.arange(self.n)[sl]
+        distinct = self.distinct_engagements(idx)
+        if distinct is None:
+            grid, row = self.forces(idx)
+            crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
+            at, crit_row = self.distinct_forces_at(sl, crit)
+            return ChunkForces(grid, row, crit, at,
+                               np.arange(idx.size) if crit_row is None else crit_row)
+        unique, row = distinct
+        grid = milling_forces(self.tool, self.coefficients, unique, self.angles,
+                              axial_slices=self.axial_slices)
+        crit = critical_angles(self.tool, unique, self.axial_slices)
+        at = milling_forces_at(self.tool, self.coefficients, unique, crit,
+                               axial_slices=self.axial_slices)
+        return ChunkForces(grid, row, crit[row], at, row)
 
     def engagement_slice(self, sl: slice | np.ndarray) -> Engagement:
         """The engagement of samples ``sl`` (a slice or increasing indices)."""
@@ -212,15 +251,12 @@ class DeflectionModel:
         engagement changing every sample, pieced samples) and the residual mode take the
         direct route of :meth:`terms`.
         """
-        idx = np.arange(self.n)[sl]
-        split, row = self.forces(idx)
-        crit = critical_angles(self.tool, self.engagement_slice(sl), self.axial_slices)
-        crit_split, crit_row = self.distinct_forces_at(sl, crit)
-        grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
-        parts = [self._reduced(sl, split.cutting, split.edge, row),
-                 self._reduced(sl, crit_split.cutting, crit_split.edge,
-                               np.arange(idx.size) if crit_row is None else crit_row)]
-        angles = np.concatenate([grid, crit], axis=1)
+        f = self.chunk_forces(sl)
+        k = f.grid_row.size
+        parts = [self._reduced(sl, f.grid.cutting, f.grid.edge, f.grid_row),
+                 self._reduced(sl, f.at_critical.cutting, f.at_critical.edge, f.critical_row)]
+        angles = np.concatenate([np.broadcast_to(self.angles, (k, self.angles.size)),
+                                 f.critical], axis=1)
         return AngleTerms(angles, *(None if p[0] is None else
                                     np.concatenate([p[0], p[1]], axis=1)
                                     for p in zip(*parts, strict=True)))
