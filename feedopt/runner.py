@@ -467,12 +467,15 @@ def write_outputs(
     export_unverified: bool = False,
     report: bool = True,
     times: dict[tuple[str, str], float] | None = None,
+    drawing: background.Prestarted | None = None,
 ) -> dict:
     """Every registered exporter's files, summary.json and the report into ``out_dir``.
 
     ``times`` (optional) receives the wall time [s] of ``("export", law)`` (controller
     samples and every exporter of the law) and ``("report", "")`` (the report is drawn in a
-    forked child while the exporters write: its row is the wait after them).
+    forked child while the exporters write: its row is the wait after them). ``drawing``: a
+    child started with :func:`report_worker` before planning, which has imported the plotting
+    libraries meanwhile (else one is forked here).
     """
     times = {} if times is None else times
     from feedopt.export.job import ExportJob, controller_samples, run_exporters
@@ -529,7 +532,6 @@ def write_outputs(
         times[("export", law)] = time.perf_counter() - t0
         if report:
             series.append(law_series(law, problem.s, ver, samples))
-    drawing = None
     if report:  # drawn in a forked child while the exporters write (feedopt.background)
         t_report = time.perf_counter()
         material = prepared.process.material
@@ -538,9 +540,11 @@ def write_outputs(
         red = (None if prepared.redundancy is None
                else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
                                       prepared.placement))
-        drawing = background.start(lambda: write_run_report(
-            out_dir, sc.name, summary, prepared.positions, prepared.samples.segment, problem,
-            series, sc.deflection.limit_mm, engagement, red), "drawing the report")
+        if drawing is None:
+            drawing = report_worker()
+        drawing.submit(write_run_report, out_dir, sc.name, summary, prepared.positions,
+                       prepared.samples.segment, problem, series, sc.deflection.limit_mm,
+                       engagement, red)
     exporting = 0.0
     try:
         for law, entry, job in pending:
@@ -558,6 +562,17 @@ def write_outputs(
         times[("report", "")] = time.perf_counter() - t_report - exporting
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     return summary
+
+
+def _import_report() -> None:
+    import feedopt.report.html  # noqa: F401 - matplotlib and the figures, ~0.5 s
+    import feedopt.report.run  # noqa: F401
+
+
+def report_worker() -> background.Prestarted:
+    """A forked child that imports the report's plotting libraries now and draws the report
+    when :func:`write_outputs` sends it the run's data."""
+    return background.prestart(_import_report, "drawing the report")
 
 
 def _profile(prepared: Prepared, results: dict[str, LawResult],
@@ -599,6 +614,8 @@ def run_scenario(
     laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
     dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite)
+    # the report's child imports matplotlib on the other core while this one plans
+    drawing = report_worker() if report else None
     try:
         prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
         results = plan_and_verify(prepared, laws, progress)
@@ -609,9 +626,11 @@ def run_scenario(
                 prepared.declined.values()) + " — add convex or jerk to schedule.laws / --laws")
         output_times: dict[tuple[str, str], float] = {}
         summary = write_outputs(prepared, results, dest.staging, export_unverified, report,
-                                output_times)
+                                output_times, drawing)
         outdir.commit(dest)
     finally:
+        if drawing is not None:  # a run that failed before its report: the child leaves
+            drawing.join(cancel=True)
         if dest.staging.exists():
             outdir.discard(dest)
     return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,

@@ -1,0 +1,81 @@
+"""feedopt.background: forked children, started at once or early (prestart), their results
+on disk, their failures and their cancellation."""
+
+import os
+from pathlib import Path
+
+import pytest
+
+from feedopt import background
+
+pytestmark = pytest.mark.skipif(not background.fork_available(), reason="needs os.fork")
+
+
+def _write(path: Path, text: str) -> None:
+    path.write_text(text)
+
+
+def _fail(message: str) -> None:
+    raise ValueError(message)
+
+
+def _warm_marker(path: Path):
+    def warm_up() -> None:
+        path.write_text(str(os.getpid()))
+    return warm_up
+
+
+def test_started_child_writes_and_joins(tmp_path: Path) -> None:
+    target = tmp_path / "out.txt"
+    background.start(lambda: _write(target, "drawn"), "writing").join()
+    assert target.read_text() == "drawn"
+
+
+def test_prestarted_child_warms_up_then_runs_the_task_it_is_sent(tmp_path: Path) -> None:
+    warm, target = tmp_path / "warm.txt", tmp_path / "out.txt"
+    worker = background.prestart(_warm_marker(warm), "writing")
+    big = "x" * (3 << 20)  # more than a pipe holds: the sender thread must not block us
+    worker.submit(_write, target, big)
+    worker.join()
+    assert target.read_text() == big
+    assert int(warm.read_text()) != os.getpid()  # the warm-up ran in the child
+
+
+def test_prestarted_child_without_a_task_leaves_quietly(tmp_path: Path) -> None:
+    warm = tmp_path / "warm.txt"
+    worker = background.prestart(_warm_marker(warm), "writing")
+    worker.join()  # no task: nothing raised, nothing written but the warm-up
+    assert warm.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["warm.txt"]
+    worker.join(cancel=True)  # a second join is harmless
+
+
+def test_prestarted_task_failure_names_the_task_and_the_error() -> None:
+    worker = background.prestart(lambda: None, "drawing the report")
+    worker.submit(_fail, "no fonts")
+    with pytest.raises(background.BackgroundFailed, match="drawing the report failed: "
+                                                          "ValueError: no fonts"):
+        worker.join()
+
+
+def test_failed_warm_up_is_reported_when_joined() -> None:
+    worker = background.prestart(lambda: _fail("matplotlib missing"), "drawing the report")
+    worker.submit(_write, Path("/nonexistent/never"), "x")
+    with pytest.raises(background.BackgroundFailed, match="matplotlib missing"):
+        worker.join()
+
+
+def test_cancelled_child_is_killed_and_writes_nothing(tmp_path: Path) -> None:
+    import time
+
+    target = tmp_path / "late.txt"
+
+    def slow_warm_up() -> None:
+        time.sleep(30)
+
+    worker = background.prestart(slow_warm_up, "writing")
+    worker.submit(_write, target, "too late")
+    t0 = time.perf_counter()
+    worker.join(cancel=True)
+    assert time.perf_counter() - t0 < 10
+    assert not target.exists()
