@@ -99,18 +99,22 @@ def verify_trajectory(
     limit: float,
     rtol: float = 1e-6,
     deflection: np.ndarray | None = None,
+    sample_times: np.ndarray | None = None,
 ) -> Verification:
     """Replay ``trajectory`` on the path samples of ``problem`` and check every constraint.
 
     ``deflection`` may carry ``model.deflection(trajectory.feed_at(problem.s))`` already
     computed (the runner replays all laws in one pass over the forces); otherwise it is
-    computed here.
+    computed here. ``sample_times`` may carry ``trajectory.time_at(problem.s)``.
     """
     baseline = is_baseline(trajectory.law)
     if not is_finite(trajectory):
         return _non_finite(trajectory, problem, limit)
-    timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline)
-    feed = trajectory.feed_at(problem.s)
+    if sample_times is None:
+        sample_times = trajectory.time_at(problem.s)
+    timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline,
+                          sample_times=sample_times)
+    feed = trajectory.timing.derivative(1)(sample_times)  # feed_at(problem.s)
     if deflection is None:
         deflection = model.deflection(np.maximum(feed, 0.0))
     worst = int(np.argmax(deflection))
@@ -197,14 +201,17 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
     t0 = time.perf_counter()
     replayable = [law for law, traj in trajectories.items() if is_finite(traj)]
     replay = {}
+    # the samples' times, found once per law (an inverse of s(t) at every sample)
+    times = {law: trajectories[law].time_at(problem.s) for law in replayable}
     if replayable:
-        feeds = np.stack([np.maximum(trajectories[law].feed_at(problem.s), 0.0)
+        feeds = np.stack([np.maximum(trajectories[law].timing.derivative(1)(times[law]), 0.0)
                           for law in replayable])
         replay = dict(zip(replayable, model.deflection(feeds), strict=True))
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():
         t1 = time.perf_counter()
-        ver = verify_trajectory(traj, problem, model, limit, deflection=replay.get(law))
+        ver = verify_trajectory(traj, problem, model, limit, deflection=replay.get(law),
+                                sample_times=times.get(law))
         out[law] = (ver, shared + time.perf_counter() - t1)
     return out

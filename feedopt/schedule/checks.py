@@ -303,6 +303,7 @@ def check_timing(
     rtol: float = 1e-6,
     c2_tol: float | None = None,
     enforce_feed_bound: bool = True,
+    sample_times: np.ndarray | None = None,
 ) -> TimingCheck:
     """Check feed bound, limits, boundary feeds and continuity of ``trajectory``.
 
@@ -314,6 +315,8 @@ def check_timing(
         False for the ``constant`` baseline, which by definition ignores v_max: its feed
         ratio is still measured but not counted as a problem, and its ramps end where its
         feed levels off (:func:`find_ramps` with ``follow_bound=False``).
+    sample_times : array, optional
+        ``trajectory.time_at(problem.s)`` when the caller has it already (the verifier).
     c2_tol : float, optional
         Largest acceleration jump [m/s^2] still counted as continuous; default
         ``1e-6 * max(1, max|sddot|)``, i.e. numerical noise.
@@ -328,7 +331,7 @@ def check_timing(
         problems.append(message)
 
     # Feed at the path samples (exact inverse of s(t)).
-    t_samples = trajectory.time_at(problem.s)
+    t_samples = trajectory.time_at(problem.s) if sample_times is None else sample_times
     motion = trajectory.at(t_samples)
     ratio = motion.sdot / problem.v_max
     worst = int(np.argmax(ratio))
