@@ -44,6 +44,7 @@ def one_run(scenario: Path, n: int) -> dict:
         "samples": prof.samples,
         "total_s": prof.total_s,
         "peak_memory_bytes": prof.peak_memory_bytes,
+        "child_peak_memory_bytes": prof.child_peak_memory_bytes,
         "rows": [[r.stage, r.law, r.seconds] for r in prof.rows],
         "laws": {law: {"cycle_time_s": e["cycle_time_s"], "verified": e["verified"],
                        "exported": e["exported"]}
@@ -77,6 +78,9 @@ def table(runs: list[dict]) -> str:
                  + f"   {fitted_exponent(n, total):8.2f}")
     lines.append(f"{'peak memory':18s}" + "".join(
         f"{r['peak_memory_bytes'] / 2**20:9.0f}MiB" for r in runs))
+    lines.append(f"{'report child':18s}" + "".join(
+        f"{r.get('child_peak_memory_bytes', 0) / 2**20:9.0f}MiB" for r in runs)
+        + "   (a fork: shares the parent's pages, so the two overlap)")
     lines.append("")
     for r in runs:
         laws = ", ".join(f"{law} {e['cycle_time_s']:.6f} s"

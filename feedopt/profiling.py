@@ -79,6 +79,9 @@ class RunProfile:
         Wall time of the whole run (:func:`run_scenario`) [s].
     peak_memory_bytes : int
         Peak resident memory of the process so far (``getrusage``).
+    child_peak_memory_bytes : int
+        Peak resident memory of the largest finished child process (the report's), which
+        shares the parent's pages until it writes them, so the two overlap.
     samples : int
         Number of path samples.
     """
@@ -87,6 +90,7 @@ class RunProfile:
     total_s: float
     peak_memory_bytes: int
     samples: int
+    child_peak_memory_bytes: int = 0
 
     def table(self) -> str:
         """The rows as a markdown table with each one's share of the total, then the total
@@ -99,14 +103,18 @@ class RunProfile:
         body.append(["total", "-", f"{self.total_s:.3f}", "100.0%"])
         headers = (("stage", False), ("law", False), ("time [s]", True), ("share", True))
         return (markdown_table(headers, body) + f"\n\n{self.samples} path samples; peak "
-                f"memory {self.peak_memory_bytes / 2**20:.0f} MiB")
+                f"memory {self.peak_memory_bytes / 2**20:.0f} MiB"
+                + (f" (report child {self.child_peak_memory_bytes / 2**20:.0f} MiB)"
+                   if self.child_peak_memory_bytes else ""))
 
 
-def peak_memory_bytes() -> int:
-    """Peak resident memory of this process so far [bytes] (0 where unknown)."""
+def peak_memory_bytes(children: bool = False) -> int:
+    """Peak resident memory of this process so far [bytes] (0 where unknown); with
+    ``children``, of its largest finished child."""
     try:
         import resource
     except ImportError:  # not on this platform
         return 0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    who = resource.RUSAGE_CHILDREN if children else resource.RUSAGE_SELF
+    peak = resource.getrusage(who).ru_maxrss
     return int(peak if sys.platform == "darwin" else peak * 1024)

@@ -588,6 +588,7 @@ def _profile(prepared: Prepared, results: dict[str, LawResult],
         rows.append(StageTiming("report", output_times[("report", "")]))
     rows.append(StageTiming("other", max(0.0, total - sum(r.seconds for r in rows))))
     return RunProfile(rows=tuple(rows), total_s=total, peak_memory_bytes=peak_memory_bytes(),
+                      child_peak_memory_bytes=peak_memory_bytes(children=True),
                       samples=int(prepared.samples.s.size))
 
 
