@@ -24,6 +24,7 @@ import threading
 import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 
 class BackgroundFailed(RuntimeError):
@@ -32,17 +33,20 @@ class BackgroundFailed(RuntimeError):
 
 @dataclass
 class Background:
-    """A started background call: :meth:`join` waits for it (or kills it)."""
+    """A started background call: :meth:`join` waits for it (or kills it) and returns the
+    function's value."""
 
     what: str
     pid: int | None = None
     read_fd: int | None = None
+    result: Any = None  # the value, where the function ran in the caller
 
-    def join(self, cancel: bool = False) -> None:
-        """Wait for the child; with ``cancel`` kill it first. Raises BackgroundFailed if the
-        child's function raised (not when cancelled)."""
+    def join(self, cancel: bool = False, reraise: bool = False) -> Any:
+        """Wait for the child; with ``cancel`` kill it first (and return None). Returns the
+        function's value. If it raised: :class:`BackgroundFailed` with the child's message,
+        or with ``reraise`` the child's own exception where it could be pickled."""
         if self.pid is None:
-            return
+            return self.result
         pid, self.pid = self.pid, None
         if cancel:
             try:
@@ -51,15 +55,23 @@ class Background:
                 pass
         chunks = []
         while True:
-            chunk = os.read(self.read_fd, 65536)
+            chunk = os.read(self.read_fd, 1 << 20)
             if not chunk:
                 break
             chunks.append(chunk)
         os.close(self.read_fd)
         _, status = os.waitpid(pid, 0)
-        if not cancel and status != 0:
-            message = b"".join(chunks).decode("utf-8", "replace").strip()
-            raise BackgroundFailed(f"{self.what} failed: {message or f'exit status {status}'}")
+        if cancel:
+            return None
+        try:
+            kind, value, text = pickle.loads(b"".join(chunks))
+        except Exception:  # noqa: BLE001 - a child that died before it could answer
+            kind, value, text = "failed", None, f"exit status {status}"
+        if kind == "ok" and status == 0:
+            return value
+        if reraise and value is not None:
+            raise value
+        raise BackgroundFailed(f"{self.what} failed: {text}")
 
 
 def fork_available() -> bool:
@@ -67,15 +79,14 @@ def fork_available() -> bool:
     return hasattr(os, "fork") and sys.platform.startswith("linux")
 
 
-def start(function: Callable[[], None], what: str) -> Background:
+def start(function: Callable[[], Any], what: str) -> Background:
     """Call ``function()`` in a forked child (or here, at once, where fork is unavailable)."""
     if not fork_available():
-        function()
-        return Background(what)
+        return Background(what, result=function())
     return _fork(function, what, ())
 
 
-def _fork(function: Callable[[], None], what: str, close_in_child: tuple[int, ...]
+def _fork(function: Callable[[], Any], what: str, close_in_child: tuple[int, ...]
           ) -> Background:
     sys.stdout.flush()
     sys.stderr.flush()
@@ -89,11 +100,19 @@ def _fork(function: Callable[[], None], what: str, close_in_child: tuple[int, ..
                 os.close(fd)
             for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
                 signal.signal(sig, signal.SIG_DFL)  # the parent decides; this may just die
-            function()
+            answer = pickle.dumps(("ok", function(), ""), protocol=pickle.HIGHEST_PROTOCOL)
         except BaseException as exc:  # noqa: BLE001 - everything goes to the parent
             code = 1
             text = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
-            os.write(write_fd, text.encode("utf-8", "replace"))
+            try:
+                answer = pickle.dumps(("raised", exc, text))
+                pickle.loads(answer)  # an exception that cannot be rebuilt goes as text
+            except Exception:  # noqa: BLE001
+                answer = pickle.dumps(("raised", None, text))
+        try:
+            view = memoryview(answer)
+            while view:
+                view = view[os.write(write_fd, view):]
         finally:
             os._exit(code)
     os.close(write_fd)
@@ -115,10 +134,12 @@ class Prestarted:
     task_fd: int | None = None
     sender: threading.Thread | None = None
 
-    def submit(self, function: Callable[..., None], *args) -> None:
+    result: Any = None  # the value, where fork is unavailable
+
+    def submit(self, function: Callable[..., Any], *args) -> None:
         """Send ``function(*args)`` to the child (where fork is unavailable: call it here)."""
         if self.child is None:
-            function(*args)
+            self.result = function(*args)
             return
         payload = pickle.dumps((function, args), protocol=pickle.HIGHEST_PROTOCOL)
         fd, self.task_fd = self.task_fd, None
@@ -136,16 +157,21 @@ class Prestarted:
         self.sender = threading.Thread(target=send, name=f"sending {self.what}", daemon=True)
         self.sender.start()
 
-    def join(self, cancel: bool = False) -> None:
-        """Wait for the task (see :meth:`Background.join`); a child without a task ends."""
+    def join(self, cancel: bool = False, reraise: bool = False) -> Any:
+        """Wait for the task and return its value (see :meth:`Background.join`); a child
+        that was sent no task ends (None)."""
         if self.task_fd is not None:  # never submitted: end of input tells the child to leave
             os.close(self.task_fd)
             self.task_fd = None
+        value = self.result
         if self.child is not None:
             child, self.child = self.child, None
-            child.join(cancel)
-        if self.sender is not None:
-            self.sender.join()
+            try:
+                value = child.join(cancel, reraise)
+            finally:
+                if self.sender is not None:
+                    self.sender.join()
+        return value
 
 
 def prestart(warm_up: Callable[[], None], what: str) -> Prestarted:
@@ -156,14 +182,15 @@ def prestart(warm_up: Callable[[], None], what: str) -> Prestarted:
         return Prestarted(what)
     task_read, task_write = os.pipe()
 
-    def child() -> None:
+    def child() -> Any:
         warm_up()
         chunks = []
         while chunk := os.read(task_read, 1 << 20):
             chunks.append(chunk)
         if chunks:
             function, args = pickle.loads(b"".join(chunks))
-            function(*args)
+            return function(*args)
+        return None
 
     started = _fork(child, what, (task_write,))
     os.close(task_read)

@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -328,14 +329,29 @@ def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
 
 
 def plan_and_verify(
-    prepared: Prepared, laws: list[str], progress: Progress = _stderr_progress
+    prepared: Prepared, laws: list[str], progress: Progress = _stderr_progress,
+    workers: dict[str, background.Prestarted] | None = None,
 ) -> dict[str, LawResult]:
-    """Run each timing law (registry order), then replay-verify all of them in one pass."""
+    """Run each timing law (registry order), then replay-verify all of them in one pass.
+
+    A law with a child in ``workers`` (:func:`law_workers`, its slow imports done) is sent
+    there and planned beside the laws planned here; its planning time is the child's own, so
+    it overlaps theirs.
+    """
     context: dict[str, Trajectory] = {}
     planned: dict[str, Trajectory] = {}
     planning_time: dict[str, float] = {}
     options = prepared.scenario.schedule
-    for law in planning_order(laws):
+    sent: dict[str, background.Prestarted] = {}
+    order = planning_order(laws)
+    for law in order:
+        worker = (workers or {}).pop(law, None)
+        if worker is not None:
+            worker.submit(_plan_law_timed, law, prepared.problem,
+                          {k: context[k] for k in LAWS[law].uses_context if k in context},
+                          options.options_for(law))
+            sent[law] = worker
+            continue
         t0 = time.perf_counter()
         try:
             planned[law] = plan_law(law, prepared.problem, context,
@@ -345,6 +361,15 @@ def plan_and_verify(
             progress(f"[5/5] {law}: declined: {exc}")
             continue
         planning_time[law] = time.perf_counter() - t0
+    for law, worker in sent.items():
+        try:
+            planned[law], planning_time[law] = worker.join(reraise=True)
+        except LawNotApplicable as exc:
+            prepared.declined[law] = str(exc)
+            progress(f"[5/5] {law}: declined: {exc}")
+        else:
+            context[law] = planned[law]
+    planned = {law: planned[law] for law in order if law in planned}  # registry order
 
     results: dict[str, LawResult] = {}
     t_star = prepared.problem.lower_bound_time()
@@ -564,6 +589,31 @@ def write_outputs(
     return summary
 
 
+def _plan_law_timed(law: str, problem, context: dict[str, Trajectory], options
+                    ) -> tuple[Trajectory, float]:
+    """:func:`plan_law` in a law worker: the trajectory and the time it took [s]."""
+    t0 = time.perf_counter()
+    trajectory = plan_law(law, problem, dict(context), options=options)
+    return trajectory, time.perf_counter() - t0
+
+
+def _import_law(law: str) -> None:
+    import importlib
+
+    for name in (*LAWS[law].slow_imports, LAWS[law].module):
+        importlib.import_module(name)
+
+
+def law_workers(laws: list[str]) -> dict[str, background.Prestarted]:
+    """A child per requested law with slow imports (:attr:`LawSpec.slow_imports`: cvxpy for
+    ``convex``), forked now so that the imports happen on the other core while this one
+    prepares; :func:`plan_and_verify` sends each its law. None where fork is unavailable."""
+    if not background.fork_available():
+        return {}
+    return {law: background.prestart(partial(_import_law, law), f"planning {law}")
+            for law in dict.fromkeys(laws) if law in LAWS and LAWS[law].slow_imports}
+
+
 def _import_report() -> None:
     import feedopt.report.html  # noqa: F401 - matplotlib and the figures, ~0.5 s
     import feedopt.report.run  # noqa: F401
@@ -615,11 +665,13 @@ def run_scenario(
     laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
     dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite)
-    # the report's child imports matplotlib on the other core while this one plans
+    # children that import matplotlib (the report) and cvxpy (convex) on the other core
+    # while this one prepares; convex is then planned there beside the other laws
     drawing = report_worker() if report else None
+    workers = law_workers(laws)
     try:
         prepared = prepare(scenario, base_dir, progress, spacing_mm=spacing_mm)
-        results = plan_and_verify(prepared, laws, progress)
+        results = plan_and_verify(prepared, laws, progress, workers)
         if scenario.deflection.mode == "residual":
             results = compensate(prepared, results, progress)
         if not results:
@@ -630,6 +682,8 @@ def run_scenario(
                                 output_times, drawing)
         outdir.commit(dest)
     finally:
+        for worker in workers.values():  # not sent a law (a failed run): the child leaves
+            worker.join(cancel=True)
         if drawing is not None:  # a run that failed before its report: the child leaves
             drawing.join(cancel=True)
         if dest.staging.exists():

@@ -79,3 +79,21 @@ def test_cancelled_child_is_killed_and_writes_nothing(tmp_path: Path) -> None:
     worker.join(cancel=True)
     assert time.perf_counter() - t0 < 10
     assert not target.exists()
+
+
+def test_the_value_comes_back_and_the_child_s_own_exception_on_request() -> None:
+    from feedopt.errors import InputError
+
+    assert background.start(lambda: {"rows": [1.5, 2.5]}, "adding").join() == {
+        "rows": [1.5, 2.5]}
+    worker = background.prestart(lambda: None, "planning")
+    worker.submit(divmod, 7, 2)
+    assert worker.join() == (3, 1)
+
+    def bad_input() -> None:
+        raise InputError("sample 3: feed 9 mm/s above 4 mm/s")
+
+    with pytest.raises(InputError, match="sample 3: feed 9 mm/s"):
+        background.start(bad_input, "planning").join(reraise=True)
+    with pytest.raises(background.BackgroundFailed, match="planning failed: InputError"):
+        background.start(bad_input, "planning").join()

@@ -55,6 +55,10 @@ class LawSpec:
         Attribute names of the planning function and options model in ``module``.
     uses_context : tuple of str
         Names of earlier laws' trajectories the plan function accepts as keyword arguments.
+    slow_imports : tuple of str
+        Modules whose import costs a noticeable part of a run (cvxpy: ~0.5 s): the runner
+        imports them in a child process started before planning, which then plans this law
+        beside the others (:func:`feedopt.runner.plan_and_verify`).
     """
 
     name: str
@@ -68,6 +72,7 @@ class LawSpec:
     plan: str = ""
     options: str = ""
     uses_context: tuple[str, ...] = field(default=())
+    slow_imports: tuple[str, ...] = field(default=())
 
     def _module(self) -> Any:
         return importlib.import_module(self.module)
@@ -124,7 +129,7 @@ for _spec in (
     LawSpec("topp", "feedopt.schedule.topp", continuity=1, colour="tab:orange", order=0,
             description="time-optimal path parameterisation (toppra), C1"),
     LawSpec("convex", "feedopt.schedule.convex", continuity=2, colour="tab:green", order=1,
-            uses_context=("topp",),
+            uses_context=("topp",), slow_imports=("cvxpy", "clarabel"),
             description="convex SOCP with a jerk limit (Verscheure et al. 2009; cvxpy + "
                         "Clarabel), quintic Hermite output"),
     LawSpec("jerk", "feedopt.schedule.jerk", continuity=2, colour="tab:purple", order=1,
