@@ -104,7 +104,7 @@ class RunProfile:
         headers = (("stage", False), ("law", False), ("time [s]", True), ("share", True))
         return (markdown_table(headers, body) + f"\n\n{self.samples} path samples; peak "
                 f"memory {self.peak_memory_bytes / 2**20:.0f} MiB"
-                + (f" (report child {self.child_peak_memory_bytes / 2**20:.0f} MiB)"
+                + (f" (largest child process {self.child_peak_memory_bytes / 2**20:.0f} MiB)"
                    if self.child_peak_memory_bytes else ""))
 
 

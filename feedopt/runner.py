@@ -344,8 +344,13 @@ def plan_and_verify(
     options = prepared.scenario.schedule
     sent: dict[str, background.Prestarted] = {}
     order = planning_order(laws)
+    workers = dict(workers or {})
+    if prepared.problem.n > CHILD_COPY_MAX_SAMPLES:  # its own copy would cost more than it saves
+        for worker in workers.values():
+            worker.join(cancel=True)
+        workers = {}
     for law in order:
-        worker = (workers or {}).pop(law, None)
+        worker = workers.pop(law, None)
         if worker is not None:
             worker.submit(_plan_law_timed, law, prepared.problem,
                           {k: context[k] for k in LAWS[law].uses_context if k in context},
@@ -565,11 +570,15 @@ def write_outputs(
         red = (None if prepared.redundancy is None
                else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
                                       prepared.placement))
-        if drawing is None:
-            drawing = report_worker()
-        drawing.submit(write_run_report, out_dir, sc.name, summary, prepared.positions,
+        draw = partial(write_run_report, out_dir, sc.name, summary, prepared.positions,
                        prepared.samples.segment, problem, series, sc.deflection.limit_mm,
                        engagement, red)
+        if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
+            drawing.submit(draw.func, *draw.args)  # the child has imported matplotlib
+        else:  # a long path: fork now and share the data instead of sending a copy
+            if drawing is not None:
+                drawing.join(cancel=True)
+            drawing = background.start(draw, "drawing the report")
     exporting = 0.0
     try:
         for law, entry, job in pending:
@@ -587,6 +596,14 @@ def write_outputs(
         times[("report", "")] = time.perf_counter() - t_report - exporting
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
     return summary
+
+
+#: Above this many path samples the children started before planning are let go: a law is
+#: planned here, not in its worker, and the report's child is forked when its data is ready
+#: (sharing it, copy-on-write). Their own copy of the data and the solver's memory (about
+#: 1 kB per sample for convex, 0.3 kB for the report) would sit next to this process's,
+#: while the imports they save (~0.5 s each) are a small part of such a run.
+CHILD_COPY_MAX_SAMPLES = 200_000
 
 
 def _plan_law_timed(law: str, problem, context: dict[str, Trajectory], options

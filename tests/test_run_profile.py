@@ -50,7 +50,7 @@ def test_profile_table_lists_rows_shares_and_total():
     with_child = RunProfile(rows=prof.rows, total_s=4.0, peak_memory_bytes=3 * 2**30,
                             samples=1000, child_peak_memory_bytes=200 * 2**20)
     assert with_child.table().splitlines()[-1] == ("1000 path samples; peak memory 3072 MiB "
-                                                   "(report child 200 MiB)")
+                                                   "(largest child process 200 MiB)")
 
 
 def test_cli_profile_prints_the_table(tmp_path, capsys):
