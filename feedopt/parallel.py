@@ -6,8 +6,8 @@ releases the GIL, so threads run chunks side by side on several cores without co
 anything; each chunk writes only its own samples, so the result does not depend on the
 number of threads or on the order in which chunks finish.
 
-``FEEDOPT_THREADS`` caps the threads (``1``: everything in the caller, as before); the default
-is the number of cores this process may use.
+``FEEDOPT_THREADS`` sets the threads (``1``: everything in the caller); the default is the
+number of cores this process may use.
 """
 
 from __future__ import annotations
@@ -17,6 +17,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
 from typing import TypeVar
 
+from feedopt.errors import InputError
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -25,13 +27,20 @@ THREADS_ENV = "FEEDOPT_THREADS"
 
 
 def worker_threads() -> int:
-    """Threads for chunk loops: ``FEEDOPT_THREADS`` if set (>= 1), else the usable cores."""
+    """Threads for chunk loops: ``FEEDOPT_THREADS`` if set, else the usable cores.
+
+    Raises
+    ------
+    InputError
+        ``FEEDOPT_THREADS`` set to anything but a whole number >= 1.
+    """
     value = os.environ.get(THREADS_ENV, "").strip()
     if value:
-        try:
-            return max(1, int(value))
-        except ValueError:
-            pass  # a malformed value: the default, as for an unset variable
+        if not value.isdigit() or int(value) < 1:
+            raise InputError(f"environment variable {THREADS_ENV} is {value!r}; it must be a "
+                             "whole number of threads >= 1 (1: no threads), or unset (every "
+                             "core)")
+        return int(value)
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
