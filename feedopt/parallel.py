@@ -48,24 +48,36 @@ def worker_threads() -> int:
 
 
 def for_each_chunk(work: Callable[[T], R], chunks: Iterable[T],
-                   threads: int | None = None) -> list[R]:
+                   threads: int | None = None,
+                   on_done: Callable[[R], None] | None = None) -> list[R]:
     """``[work(c) for c in chunks]``, the calls spread over ``threads`` threads.
 
     At most ``2 * threads`` chunks are in flight, so memory stays that of a few chunks. The
     first exception raised by ``work`` is raised here (after the running chunks end).
+    ``on_done(result)`` is called in the caller's thread for each chunk, in order (a
+    progress bar).
     """
     threads = worker_threads() if threads is None else max(1, threads)
-    if threads == 1:
-        return [work(c) for c in chunks]
     results: list[R] = []
+
+    def keep(result: R) -> None:
+        results.append(result)
+        if on_done is not None:
+            on_done(result)
+
+    if threads == 1:
+        for c in chunks:
+            keep(work(c))
+        return results
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="feedopt-chunk") as pool:
         pending = []
         try:
             for c in chunks:
                 pending.append(pool.submit(work, c))
                 if len(pending) >= 2 * threads:
-                    results.append(pending.pop(0).result())
-            results.extend(f.result() for f in pending)
+                    keep(pending.pop(0).result())
+            while pending:
+                keep(pending.pop(0).result())
         except BaseException:
             for f in pending:  # what has not started yet never will
                 f.cancel()

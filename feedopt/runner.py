@@ -262,7 +262,9 @@ def prepare(
              f"number {along.max_condition_number:.1f} ({times['robot']:.2f} s)")
 
     t0 = time.perf_counter()
-    schedule = schedule_problem(scenario, process, robot, along, placement, samples, path)
+    with progress_bar(progress, "[4/5] deflection bound") as bar:
+        schedule = schedule_problem(scenario, process, robot, along, placement, samples, path,
+                                    progress=bar)
     redundancy, nearest_compliance = None, None
     if scenario.robot.redundancy == "optimise":
         times["bounds"] = time.perf_counter() - t0
@@ -378,8 +380,9 @@ def plan_and_verify(
 
     results: dict[str, LawResult] = {}
     t_star = prepared.problem.lower_bound_time()
-    for law, (ver, dt_verify) in replay_all(planned, prepared.problem, prepared.model,
-                                            prepared.limit).items():
+    with progress_bar(progress, "[5/5] replay") as bar:
+        replayed = replay_all(planned, prepared.problem, prepared.model, prepared.limit, bar)
+    for law, (ver, dt_verify) in replayed.items():
         traj, dt = planned[law], planning_time[law]
         results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt,
                                  verification_time=dt_verify)

@@ -190,11 +190,12 @@ def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) 
 
 
 def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
-               model: DeflectionModel, limit: float) -> dict[str, tuple[Verification, float]]:
+               model: DeflectionModel, limit: float, progress=None
+               ) -> dict[str, tuple[Verification, float]]:
     """Verify every trajectory, replaying the forces of all of them in one pass.
 
     Returns ``{law: (verification, seconds)}``; the shared force pass is split evenly among
-    the laws that could be replayed.
+    the laws that could be replayed. ``progress(samples_done, samples)`` follows the replay.
     """
     import time
 
@@ -206,7 +207,7 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
     if replayable:
         feeds = np.stack([np.maximum(trajectories[law].timing.derivative(1)(times[law]), 0.0)
                           for law in replayable])
-        replay = dict(zip(replayable, model.deflection(feeds), strict=True))
+        replay = dict(zip(replayable, model.deflection(feeds, progress), strict=True))
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():

@@ -26,7 +26,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
 from feedopt.registry import add_unique
-from feedopt.schedule.deflection import AngleTerms, DeflectionModel
+from feedopt.schedule.deflection import AngleTerms, DeflectionModel, counting
 from feedopt.units import MM
 
 
@@ -48,6 +48,7 @@ class BoundInputs:
     positions: np.ndarray | None = None  # (n, 3) base frame [m], for messages
     compensation_cap: float = np.inf  # largest compensated offset (residual mode) [m]
     cache: dict = field(default_factory=dict)
+    progress: Callable[[int, int], None] | None = None  # (samples done, samples): a bar
 
     @property
     def n(self) -> int:
@@ -144,7 +145,9 @@ def largest_feed_per_tooth_projected(a: np.ndarray, b: np.ndarray, limit: float)
     return np.maximum(np.min(_upper_roots_projected(a, b, limit), axis=1), 0.0)
 
 
-def deflection_feed_bound(model: DeflectionModel, limit: float) -> tuple[np.ndarray, np.ndarray]:
+def deflection_feed_bound(model: DeflectionModel, limit: float,
+                          progress: Callable[[int, int], None] | None = None
+                          ) -> tuple[np.ndarray, np.ndarray]:
     """v_max from the deflection limit [m/s] and the zero-feed deflection [m], per sample.
 
     The largest feed per tooth is the minimum over the angle grid, every slice entry/exit
@@ -157,14 +160,16 @@ def deflection_feed_bound(model: DeflectionModel, limit: float) -> tuple[np.ndar
     def window(s_: slice | np.ndarray, w: np.ndarray) -> AngleTerms:
         return AngleTerms.from_vectors(w, *model.at_angles(s_, w))
 
-    def bound(sl: slice | np.ndarray) -> None:
+    def bound(sl: slice | np.ndarray) -> int:
         terms = model.angle_terms(sl)
         zero[sl] = model.refine(sl, terms.angles, terms.zero_feed(), "max",
                                 lambda s_, w: window(s_, w).zero_feed())
         c_max[sl] = model.refine(sl, terms.angles, upper_roots(terms, limit), "min",
                                  lambda s_, w: upper_roots(window(s_, w), limit))
+        return terms.angles.shape[0]
 
-    for_each_chunk(bound, model.sample_chunks(model.chunk_size()))
+    for_each_chunk(bound, model.sample_chunks(model.chunk_size()),
+                   on_done=counting(progress, model.n))
     return np.maximum(c_max, 0.0) * model.feed_per_unit_c, zero
 
 
@@ -225,7 +230,7 @@ class DeflectionConstraint:
         the worst sample, its position, the zero-feed deflection and the smallest workable
         limit."""
         limit = inputs.limit
-        v_defl, zero = deflection_feed_bound(inputs.model, limit)
+        v_defl, zero = deflection_feed_bound(inputs.model, limit, inputs.progress)
         inputs.cache["zero_feed_deflection"] = zero
         bad = np.flatnonzero(zero > limit)
         if bad.size:

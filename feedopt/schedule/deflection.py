@@ -11,7 +11,7 @@ memory stays bounded at 1e5 samples x 360 angles.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -371,7 +371,8 @@ class DeflectionModel:
             return np.broadcast_to(d / np.linalg.norm(d), (self.frames[sl].shape[0], 3))
         raise ValueError(f"unknown limit mode {self.mode!r}; expected one of {LIMIT_MODES}")
 
-    def deflection(self, feed: np.ndarray) -> np.ndarray:
+    def deflection(self, feed: np.ndarray,
+                   progress: Callable[[int, int], None] | None = None) -> np.ndarray:
         """Max over the revolution of the limited deflection [m] at path feeds ``feed`` [m/s].
 
         This is the forward replay used by verification: F = c Fc + Fe at the commanded
@@ -379,6 +380,7 @@ class DeflectionModel:
         angle grid, every slice entry/exit angle and a refinement around the worst angle.
         ``feed`` is (n,) or (L, n) for L feed profiles (several timing laws): the forces of
         each chunk are then computed once for all of them. The result has ``feed``'s shape.
+        ``progress(samples_done, samples)`` after each chunk.
         """
         c_all = np.atleast_2d(np.asarray(feed, dtype=float)) / self.feed_per_unit_c
         out = np.empty(c_all.shape)
@@ -387,16 +389,33 @@ class DeflectionModel:
             d = c[:, None, None] * a + b if a.ndim == 3 else c[:, None] * a + b
             return norm3(d) if d.ndim == 3 else np.abs(d)
 
-        def replay(sl: slice | np.ndarray) -> None:
+        def replay(sl: slice | np.ndarray) -> int:
             terms = self.angle_terms(sl)
             windows = _WindowMemo(self, sl)  # the laws' refinement windows mostly coincide
             for row, c in enumerate(c_all[:, sl]):
                 out[row, sl] = self.refine(
                     sl, terms.angles, terms.magnitude(c), "max",
                     lambda s_, w, c=c: magnitude(c, *windows.at_angles(s_, w)))
+            return terms.angles.shape[0]
 
-        for_each_chunk(replay, self.sample_chunks(self.chunk_size()))
+        for_each_chunk(replay, self.sample_chunks(self.chunk_size()),
+                       on_done=counting(progress, self.n))
         return out.reshape(np.shape(feed))
+
+
+def counting(progress: Callable[[int, int], None] | None, total: int
+             ) -> Callable[[int], None] | None:
+    """An ``on_done`` for :func:`feedopt.parallel.for_each_chunk` whose chunks return their
+    sample count: ``progress(samples_done, total)`` (None without ``progress``)."""
+    if progress is None:
+        return None
+    done = [0]
+
+    def update(samples: int) -> None:
+        done[0] += samples
+        progress(done[0], total)
+
+    return update
 
 
 class _WindowMemo:

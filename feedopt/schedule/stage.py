@@ -67,13 +67,14 @@ def programmed_feed(moves, s: np.ndarray, feed) -> tuple[np.ndarray, np.ndarray]
 
 
 def schedule_problem(scenario, process, robot, along, placement, samples,
-                     path) -> ScheduleInputs:
+                     path, progress=None) -> ScheduleInputs:
     """Build the deflection model, v_max(s) and the schedule problem of ``scenario``.
 
     ``process`` is a :class:`feedopt.process.stage.ProcessAlongPath`, ``robot`` a
     :class:`feedopt.robot.model.RobotModel`, ``along`` the robot along the path
     (:func:`feedopt.robot.stage.robot_along_path`), ``placement`` the
-    :class:`feedopt.cell.Placement`, ``samples`` the sampled path, ``path`` the path.
+    :class:`feedopt.cell.Placement`, ``samples`` the sampled path, ``path`` the path;
+    ``progress(samples_done, samples)`` follows the deflection bound (a progress bar).
     """
     limits, feed, sched = scenario.limits, scenario.feed, scenario.schedule
     defl = scenario.deflection
@@ -108,6 +109,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         positions=placement.positions,
         compensation_cap=(np.inf if defl.compensation_cap_mm is None
                           else defl.compensation_cap_mm * MM),
+        progress=progress,
     ))
     problem = ScheduleProblem(
         s=samples.s,

@@ -73,3 +73,22 @@ def test_several_laws_replay_as_each_alone() -> None:
     together = model.deflection(feeds)
     alone = np.vstack([model.deflection(f) for f in feeds])
     np.testing.assert_allclose(together, alone, rtol=1e-14, atol=0)
+
+
+def test_bound_and_replay_report_their_progress(monkeypatch) -> None:
+    """``progress(done, total)`` after every chunk, in order, ending at every sample (what
+    the runner's progress bars show for a long path)."""
+    n = 23
+    model = _model(n=n, engagement=_two_engagements(n))
+    monkeypatch.setattr(deflection_module, "_CHUNK", 4)
+    calls = []
+    inputs = BoundInputs(model=model, limit=0.29e-3, max_feed=np.inf, dq_ds=np.zeros((n, 6)),
+                         joint_velocity_max=np.ones(6),
+                         progress=lambda done, total: calls.append((done, total)))
+    feed_bound(inputs)
+    model.deflection(np.full(n, 3e-3), lambda done, total: calls.append((done, total)))
+    bound_calls, replay_calls = calls[: len(calls) // 2], calls[len(calls) // 2:]
+    for seen in (bound_calls, replay_calls):
+        done = [d for d, _ in seen]
+        assert done == sorted(done) and done[-1] == n and len(done) == 6  # ceil(23 / 4)
+        assert all(total == n for _, total in seen)
