@@ -6,7 +6,10 @@ tool axis) and the translational compliance C(q) of the robot stage (Eq. 3.19/3.
 the deflection is d(phi) = c a(phi) + b(phi) with a = C R Fc and b = C R Fe (design.md).
 
 Forces are computed per *distinct* engagement (a slot has one) and in chunks of samples, so
-memory stays bounded at 1e5 samples x 360 angles.
+memory stays bounded at 1e5 samples x 360 angles. The bound and the replay use the reduced
+per-angle terms |a|^2, a.b, |b|^2 (:class:`AngleTerms`, from the Gram matrix of C R where
+samples share their forces); :meth:`DeflectionModel.terms` is the direct route, the
+reference the reduced one is tested against.
 """
 
 from __future__ import annotations
@@ -233,11 +236,6 @@ class DeflectionModel:
         grid = np.broadcast_to(self.angles, (idx.size, self.angles.size))
         return (np.concatenate([grid, crit], axis=1), np.concatenate([a_grid, a_crit], axis=1),
                 np.concatenate([b_grid, b_crit], axis=1))
-
-    def chunks(self) -> Iterator[tuple[slice, np.ndarray, np.ndarray, np.ndarray]]:
-        """Yield ``(samples, angles, a, b)`` chunk by chunk (:meth:`terms`), in order."""
-        for sl in self.sample_chunks(self.chunk_size()):
-            yield (sl, *self.terms(sl))
 
     def angle_terms(self, sl: slice | np.ndarray) -> AngleTerms:
         """What the bound and the replay need of samples ``sl`` over the angles of
