@@ -506,15 +506,56 @@ def _refine(
     configuration, errors and Newton steps vectorised, until every sample is within the
     tolerances; each pass evaluates only the samples still above them.
 
+    With two chunks or more, the second half of the chunks is refined in a forked child
+    process (:mod:`feedopt.background`; the pinocchio loop holds the GIL, so threads would
+    not help) while this process refines the first: every sample is refined alone, so the
+    result is the same bit for bit.
+
     Returns the position [m] and orientation [rad] errors (n,) and the Jacobian condition
     numbers (n,) of the last evaluation; fills ``jacobian_out`` (n, 6, dof) with its TCP
     Jacobians when given. ``progress(samples_done)`` after each chunk.
     """
-    n, dof = q.shape
-    damping_eye = np.eye(task.size) * options.damping
+    from feedopt import background
+
+    n = q.shape[0]
     pos_err, ang_err, cond = np.empty(n), np.empty(n), np.empty(n)
-    for start in range(0, n, _CHUNK):
-        rows = np.arange(start, min(start + _CHUNK, n))
+    out = (q, pos_err, ang_err, cond, jacobian_out)
+    starts = range(0, n, _CHUNK)
+    if len(starts) < 2 or not background.fork_available():
+        _refine_rows(kin, task, options, out, 0, n, progress)
+        return pos_err, ang_err, cond
+    split = starts[(len(starts) + 1) // 2]
+
+    def second_half() -> tuple[np.ndarray | None, ...]:
+        _refine_rows(kin, task, options, out, split, n, None)
+        return tuple(None if a is None else a[split:] for a in out)
+
+    child = background.start(second_half, "refining the path IK")
+    try:
+        _refine_rows(kin, task, options, out, 0, split, progress)
+    except BaseException:
+        child.join(cancel=True)
+        raise
+    for mine, theirs in zip(out, child.join(reraise=True), strict=True):
+        if mine is not None:
+            mine[split:] = theirs
+    if progress is not None:
+        progress(n)
+    return pos_err, ang_err, cond
+
+
+def _refine_rows(
+    kin: _TcpKinematics, task: _Task, options: IKOptions,
+    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None],
+    first: int, stop: int, progress: Callable[[int], None] | None,
+) -> None:
+    """:func:`_refine` of the samples ``first`` .. ``stop`` (chunk by chunk), into ``out`` =
+    (q, position errors, orientation errors, condition numbers, Jacobians or None)."""
+    q, pos_err, ang_err, cond, jacobian_out = out
+    dof = q.shape[1]
+    damping_eye = np.eye(task.size) * options.damping
+    for start in range(first, stop, _CHUNK):
+        rows = np.arange(start, min(start + _CHUNK, stop))
         sub = _sub_task(task, rows)
         qc = q[rows]  # a copy, written back below
         pose, jac = np.empty((rows.size, 4, 4)), np.empty((rows.size, 6, dof))
@@ -537,7 +578,6 @@ def _refine(
             jacobian_out[rows] = jac
         if progress is not None:
             progress(int(rows[-1]) + 1)
-    return pos_err, ang_err, cond
 
 
 def _sub_task(task: _Task, rows: np.ndarray) -> _Task:
