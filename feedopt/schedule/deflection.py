@@ -251,10 +251,14 @@ class DeflectionModel:
         """
         f = self.chunk_forces(sl)
         k = f.grid_row.size
-        parts = [self._reduced(sl, f.grid.cutting, f.grid.edge, f.grid_row),
-                 self._reduced(sl, f.at_critical.cutting, f.at_critical.edge, f.critical_row)]
         angles = np.concatenate([np.broadcast_to(self.angles, (k, self.angles.size)),
                                  f.critical], axis=1)
+        if f.critical_row is f.grid_row:  # both per distinct engagement: one pass, joined
+            return AngleTerms(angles, *self._reduced(
+                sl, np.concatenate([f.grid.cutting, f.at_critical.cutting], axis=1),
+                np.concatenate([f.grid.edge, f.at_critical.edge], axis=1), f.grid_row))
+        parts = [self._reduced(sl, f.grid.cutting, f.grid.edge, f.grid_row),
+                 self._reduced(sl, f.at_critical.cutting, f.at_critical.edge, f.critical_row)]
         return AngleTerms(angles, *(None if p[0] is None else
                                     np.concatenate([p[0], p[1]], axis=1)
                                     for p in zip(*parts, strict=True)))
