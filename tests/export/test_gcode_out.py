@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -21,7 +20,7 @@ from feedopt.export.gcode_out import (
 )
 from feedopt.gcode import MoveCategory, MoveKind, parse_gcode, read_gcode
 from feedopt.runner import run_scenario
-from tests.conftest import ROOT
+from tests.export.conftest import run_triangle_at_1mm
 
 quiet = lambda _m: None  # noqa: E731
 
@@ -133,16 +132,7 @@ def test_bad_input_is_refused() -> None:
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("g")
-    doc = yaml.safe_load((ROOT / "scenarios" / "triangle_slot.yaml").read_text())
-    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
-    doc["tool"] = str(ROOT / "scenarios" / doc["tool"])
-    doc["material"] = str(ROOT / "scenarios" / doc["material"])
-    doc["path"]["spacing_mm"] = 1.0
-    doc["schedule"]["laws"] = ["thesis", "jerk"]
-    p = tmp / "s.yaml"
-    p.write_text(yaml.safe_dump(doc))
-    return run_scenario(p, out_dir=tmp / "out", progress=quiet, report=False)
+    return run_triangle_at_1mm(tmp_path_factory.mktemp("g"), ["thesis", "jerk"])
 
 
 @pytest.mark.parametrize("law", ["jerk", "thesis"])
