@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.export.job import Exporter, ExportJob, status_line
+from feedopt.floattext import write_float_rows
 from feedopt.units import MM_PER_M
 
 COLUMNS = ("t_s", "s_mm", "nominal_x_mm", "nominal_y_mm", "nominal_z_mm", "commanded_x_mm",
@@ -29,13 +30,12 @@ def export_compensation(job: ExportJob, out_dir: Path) -> dict:
     m = np.column_stack([motion.t, s * MM_PER_M, nominal * MM_PER_M, commanded * MM_PER_M,
                          (commanded - nominal) * MM_PER_M])
     name = f"{job.law}_compensation.csv"
-    row = ",".join(["%r"] * len(COLUMNS)).__mod__
     with (out_dir / name).open("w", encoding="ascii", newline="\n") as f:
         f.write(f"# {status_line(job)}\n"
                 "# compensation: commanded = nominal - predicted mean deflection of a cutter "
                 "revolution at the planned feed (deflection.mode residual); base frame, mm; "
                 f"{job.law}.csv carries the commanded pose\n" + ",".join(COLUMNS) + "\n")
-        f.write("".join(row(tuple(r)) + "\n" for r in m.tolist()))
+        write_float_rows(f, m)
     offset = np.linalg.norm(commanded - nominal, axis=1)
     return {"compensation_csv": name,
             "max_compensation_offset_mm": float(offset.max() * MM_PER_M) if offset.size else 0.0}

@@ -7,9 +7,9 @@ Columns (``shared/design.md``, in this order)::
 
 The pose is the TCP in the robot base frame; A, B, C are KUKA intrinsic Z-Y'-X'' angles
 (:mod:`feedopt.robot.kuka`). The file starts with ``#`` comment lines (units, frames, cycle),
-then the header row, then the data rows. Floats are written with Python's shortest
-round-trip representation (``repr``), so :func:`write_rsi_csv` then :func:`read_rsi_csv`
-gives back the same bits.
+then the header row, then the data rows. Floats are written as their shortest round-trip
+decimals (:mod:`feedopt.floattext`), so :func:`write_rsi_csv` then :func:`read_rsi_csv` gives
+back the same bits.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.job import Exporter, ExportJob, status_line
+from feedopt.floattext import write_float_rows
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
@@ -42,9 +43,6 @@ COLUMNS: tuple[str, ...] = (
     "jerk_mm_s3",
     "deflection_mm",
 )
-
-# Data rows formatted and written per block by write_rsi_csv.
-_ROWS_PER_BLOCK = 1 << 14
 
 _HEADER_DOC = (
     "feedopt RSI trajectory: one row per RSI cycle.",
@@ -206,16 +204,12 @@ def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = (
         ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
         lines.extend(f"# {part}" for part in ascii_text.splitlines() or [""])
     lines.append(",".join(COLUMNS))
-    # tolist() gives Python floats, whose repr ("%r") is the shortest string that round-trips;
-    # one %-format per row and blocks of rows written as they are formatted (the file is
-    # never held in memory: 11 h at 4 ms is 2.5 GB).
-    row_format = ",".join(["%r"] * len(COLUMNS)).__mod__
+    # Blocks of rows are written as they are formatted: the file is never held in memory
+    # (11 h at 4 ms is 2.5 GB).
     path = Path(path)
     with path.open("w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(lines) + "\n")
-        for start in range(0, m.shape[0], _ROWS_PER_BLOCK):
-            rows = m[start:start + _ROWS_PER_BLOCK].tolist()
-            f.write("\n".join(map(row_format, map(tuple, rows))) + "\n")
+        write_float_rows(f, m)
     return path
 
 

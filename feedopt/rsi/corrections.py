@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.floattext import ROWS_PER_BLOCK, format_float_rows
 
 if TYPE_CHECKING:  # types only: the export package imports this module (rsi_program)
     from feedopt.export.rsi import RsiTable
@@ -174,10 +175,6 @@ def wrap_deg(angle: np.ndarray) -> np.ndarray:
     return (np.asarray(angle, dtype=float) + 180.0) % 360.0 - 180.0
 
 
-#: Data rows formatted and written per block (a long job's file is never held in memory).
-_ROWS_PER_BLOCK = 1 << 14
-
-
 def write_corrections_csv(path: str | Path, plan: CorrectionPlan, mode: CorrectionMode,
                           comments: Sequence[str] = ()) -> Path:
     """Write ``<law>_rsi.csv``: ``#`` lines (mode, start pose, units), header, one row per cycle
@@ -203,12 +200,11 @@ def write_corrections_csv(path: str | Path, plan: CorrectionPlan, mode: Correcti
         lines.extend(f"# {part}" for part in text.splitlines() or [""])
     lines.append(",".join(COLUMNS))
     answers = plan.answers(mode)
-    row_format = ",".join(["%r"] * len(COLUMNS)).__mod__
     path = Path(path)
     with path.open("w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(lines) + "\n")
-        for start in range(0, len(plan), _ROWS_PER_BLOCK):
-            stop = start + _ROWS_PER_BLOCK
-            rows = np.column_stack([plan.t_s[start:stop], answers[start:stop]]).tolist()
-            f.write("\n".join(map(row_format, map(tuple, rows))) + "\n")
+        for start in range(0, len(plan), ROWS_PER_BLOCK):
+            stop = start + ROWS_PER_BLOCK
+            f.write(format_float_rows(
+                np.column_stack([plan.t_s[start:stop], answers[start:stop]])))
     return path
