@@ -26,7 +26,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
 from feedopt.registry import add_unique
-from feedopt.schedule.deflection import AngleTerms, DeflectionModel, counting
+from feedopt.schedule.deflection import AngleTerms, DeflectionModel, GridExtreme, counting
 from feedopt.units import MM
 
 
@@ -123,6 +123,16 @@ def upper_roots(terms: AngleTerms, limit: float) -> np.ndarray:
     return _upper_roots_projected(terms.a, terms.b, limit)
 
 
+def smallest_upper_root(terms: AngleTerms, limit: float) -> GridExtreme:
+    """Per sample, the angle with the smallest :func:`upper_roots` and that root, formed in
+    blocks of rows that stay in cache (:meth:`GridExtreme.blocked`)."""
+    if terms.quadratic:
+        return GridExtreme.blocked(lambda r: _upper_roots_quadratic(
+            terms.aa[r], terms.ab[r], terms.bb[r], limit), terms.angles.shape[0], "min")
+    return GridExtreme.blocked(lambda r: _upper_roots_projected(terms.a[r], terms.b[r], limit),
+                               terms.angles.shape[0], "min")
+
+
 def largest_feed_per_tooth_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
     """Largest c >= 0 with max over angles of |c a + b| <= limit (norm mode).
 
@@ -162,9 +172,9 @@ def deflection_feed_bound(model: DeflectionModel, limit: float,
 
     def bound(sl: slice | np.ndarray) -> int:
         terms = model.angle_terms(sl)
-        zero[sl] = model.refine(sl, terms.angles, terms.zero_feed(), "max",
+        zero[sl] = model.refine(sl, terms.angles, terms.largest_zero_feed(), "max",
                                 lambda s_, w: window(s_, w).zero_feed())
-        c_max[sl] = model.refine(sl, terms.angles, upper_roots(terms, limit), "min",
+        c_max[sl] = model.refine(sl, terms.angles, smallest_upper_root(terms, limit), "min",
                                  lambda s_, w: upper_roots(window(s_, w), limit))
         return terms.angles.shape[0]
 

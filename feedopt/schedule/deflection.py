@@ -304,19 +304,22 @@ class DeflectionModel:
             return 2.0 * np.pi / self.tool.teeth
         return float(np.max(np.diff(np.sort(self.angles))))
 
-    def refine(self, sl: slice, angles: np.ndarray, value: np.ndarray, worst: str,
-               evaluate) -> np.ndarray:
+    def refine(self, sl: slice, angles: np.ndarray, grid: GridExtreme | np.ndarray,
+               worst: str, evaluate) -> np.ndarray:
         """Refine the extreme of a per-angle quantity between grid points.
 
-        Between the jumps (which :meth:`chunks` samples exactly) the forces are smooth, so
+        Between the jumps (which :meth:`terms` samples exactly) the forces are smooth, so
         the extreme lies within one grid step of the best grid or critical angle: evaluate a
         window of 9 angles across +-1 step around it, then the vertex of the parabola
-        through the best window point and its neighbours. Returns the per-sample extreme
-        (max if ``worst == "max"``, else min) over everything evaluated.
+        through the best window point and its neighbours. ``grid`` is the quantity over
+        ``angles`` (k, M) or already its extreme per sample (:class:`GridExtreme`). Returns
+        the per-sample extreme (max if ``worst == "max"``, else min) over everything
+        evaluated.
         """
         pick = np.argmax if worst == "max" else np.argmin
-        best_i = pick(value, axis=1)
-        centre = np.take_along_axis(angles, best_i[:, None], axis=1)[:, 0]
+        if not isinstance(grid, GridExtreme):
+            grid = GridExtreme.of(grid, worst)
+        centre = np.take_along_axis(angles, grid.index[:, None], axis=1)[:, 0]
         h = self._step / 4.0
         window = centre[:, None] + h * np.arange(-4, 5)[None, :]
         vw = evaluate(sl, window)
@@ -329,7 +332,7 @@ class DeflectionModel:
         shift = np.where(np.isfinite(shift), shift, 0.0)  # samples without force: inf - inf
         vertex = np.take_along_axis(window, j[:, None], axis=1)[:, 0] + np.clip(shift, -1, 1) * h
         vv = evaluate(sl, vertex[:, None])[:, 0]
-        stack = np.column_stack([value.max(axis=1) if worst == "max" else value.min(axis=1),
+        stack = np.column_stack([grid.value,
                                  vw.max(axis=1) if worst == "max" else vw.min(axis=1), vv])
         return stack.max(axis=1) if worst == "max" else stack.min(axis=1)
 
@@ -396,7 +399,7 @@ class DeflectionModel:
             windows = _WindowMemo(self, sl)  # the laws' refinement windows mostly coincide
             for row, c in enumerate(c_all[:, sl]):
                 out[row, sl] = self.refine(
-                    sl, terms.angles, terms.magnitude(c), "max",
+                    sl, terms.angles, terms.largest_magnitude(c), "max",
                     lambda s_, w, c=c: magnitude(c, *windows.at_angles(s_, w)))
             return terms.angles.shape[0]
 
@@ -503,6 +506,64 @@ class AngleTerms:
     def zero_feed(self) -> np.ndarray:
         """The deflection [m] of the edge forces alone (c = 0)."""
         return np.sqrt(np.maximum(self.bb, 0.0)) if self.quadratic else np.abs(self.b)
+
+    def largest_magnitude(self, c: np.ndarray) -> GridExtreme:
+        """Per sample, the angle of the largest :meth:`magnitude` at ``c`` (k,) and its
+        value, without the (k, M) array of magnitudes: the square is formed in blocks of rows
+        that stay in cache and the root is taken of the largest square only (the root is
+        monotone, so the value is the same)."""
+        if not self.quadratic:
+            return GridExtreme.blocked(
+                lambda r: np.abs(c[r, None] * self.a[r] + self.b[r]), c.size, "max")
+
+        def square(r: slice) -> np.ndarray:
+            out = np.multiply((c[r] * c[r])[:, None], self.aa[r])
+            out += (2.0 * c[r])[:, None] * self.ab[r]
+            out += self.bb[r]
+            return out
+
+        extreme = GridExtreme.blocked(square, c.size, "max")
+        return GridExtreme(extreme.index, np.sqrt(np.maximum(extreme.value, 0.0)))
+
+    def largest_zero_feed(self) -> GridExtreme:
+        """:meth:`zero_feed`'s largest angle and value per sample (see
+        :meth:`largest_magnitude`)."""
+        if not self.quadratic:
+            return GridExtreme.of(np.abs(self.b), "max")
+        extreme = GridExtreme.of(self.bb, "max")
+        return GridExtreme(extreme.index, np.sqrt(np.maximum(extreme.value, 0.0)))
+
+
+#: Rows of a (k, M) per-angle array handled at a time by :meth:`GridExtreme.blocked`: with
+#: M ~ 400 angles a block's temporaries (~0.8 MB each) stay in a core's L2 cache.
+_ROWS_PER_BLOCK = 256
+
+
+@dataclass(frozen=True)
+class GridExtreme:
+    """Per sample (k,), the index of the extreme angle of a per-angle quantity and its value
+    (the first such angle on ties, as ``np.argmax`` / ``np.argmin``)."""
+
+    index: np.ndarray
+    value: np.ndarray
+
+    @classmethod
+    def of(cls, value: np.ndarray, worst: str) -> GridExtreme:
+        """Of a (k, M) array: ``worst`` is ``"max"`` or ``"min"``."""
+        index = (np.argmax if worst == "max" else np.argmin)(value, axis=1)
+        return cls(index, np.take_along_axis(value, index[:, None], axis=1)[:, 0])
+
+    @classmethod
+    def blocked(cls, rows: Callable[[slice], np.ndarray], k: int, worst: str,
+                block: int | None = None) -> GridExtreme:
+        """Of the (k, M) array whose rows ``r`` are ``rows(r)``, formed block by block."""
+        block = block or _ROWS_PER_BLOCK
+        index, value = np.empty(k, dtype=np.intp), np.empty(k)
+        for start in range(0, k, block):
+            r = slice(start, min(start + block, k))
+            part = cls.of(rows(r), worst)
+            index[r], value[r] = part.index, part.value
+        return cls(index, value)
 
 
 _HASH_WEIGHTS = np.random.default_rng(20261202).uniform(0.5, 1.5, 4096)

@@ -92,3 +92,49 @@ def test_bound_and_replay_report_their_progress(monkeypatch) -> None:
         done = [d for d, _ in seen]
         assert done == sorted(done) and done[-1] == n and len(done) == 6  # ceil(23 / 4)
         assert all(total == n for _, total in seen)
+
+
+@pytest.mark.parametrize("block", [1, 7, 256])
+def test_blocked_extreme_is_the_whole_array_extreme(block: int) -> None:
+    """Row blocks give numpy's argmax / argmin over the whole array, ties included."""
+    rng = np.random.default_rng(11)
+    value = rng.integers(0, 4, (40, 9)).astype(float)  # many ties
+    for worst, pick in (("max", np.argmax), ("min", np.argmin)):
+        got = deflection_module.GridExtreme.blocked(lambda r: value[r], 40, worst, block)
+        np.testing.assert_array_equal(got.index, pick(value, axis=1))
+        np.testing.assert_array_equal(got.value, value[np.arange(40), pick(value, axis=1)])
+
+
+@pytest.mark.parametrize("mode", ["norm", "direction"])
+def test_largest_magnitude_is_the_max_of_the_magnitudes(mode: str, monkeypatch) -> None:
+    """The blocked square-then-root extreme equals the extreme of :meth:`magnitude` (the
+    whole (k, M) array of roots), and the zero-feed one that of :meth:`zero_feed`."""
+    monkeypatch.setattr(deflection_module, "_ROWS_PER_BLOCK", 5)
+    n = 23
+    model = _model(n=n, mode=mode, engagement=_two_engagements(n))
+    if mode == "direction":
+        model = deflection_module.DeflectionModel(**{**model.__dict__,
+                                                     "direction": np.array([1.0, 2.0, 0.5])})
+    terms = model.angle_terms(slice(0, n))
+    c = np.linspace(0.0, 2e-4, n)
+    for got, whole in ((terms.largest_magnitude(c), terms.magnitude(c)),
+                       (terms.largest_zero_feed(), terms.zero_feed())):
+        np.testing.assert_array_equal(got.value, whole.max(axis=1))
+        np.testing.assert_array_equal(whole[np.arange(n), got.index], whole.max(axis=1))
+
+
+@pytest.mark.parametrize("mode", ["norm", "direction"])
+def test_smallest_upper_root_is_the_min_of_the_roots(mode: str, monkeypatch) -> None:
+    from feedopt.schedule.bounds import smallest_upper_root, upper_roots
+
+    monkeypatch.setattr(deflection_module, "_ROWS_PER_BLOCK", 4)
+    n = 19
+    model = _model(n=n, mode=mode, engagement=_two_engagements(n))
+    if mode == "direction":
+        model = deflection_module.DeflectionModel(**{**model.__dict__,
+                                                     "direction": np.array([0.3, 1.0, 0.2])})
+    terms = model.angle_terms(slice(0, n))
+    roots = upper_roots(terms, 0.29e-3)
+    got = smallest_upper_root(terms, 0.29e-3)
+    np.testing.assert_array_equal(got.index, roots.argmin(axis=1))
+    np.testing.assert_array_equal(got.value, roots.min(axis=1))
