@@ -15,7 +15,7 @@ from pathlib import Path
 
 from feedopt.report.data import ReportData
 from feedopt.report.inputs import input_rows, run_warnings
-from feedopt.report.plots import FIGURES, render_png
+from feedopt.report.plots import FIGURES, render_pngs
 from feedopt.report.tables import (
     RAMP_NOTE,
     comparison_table,
@@ -65,14 +65,15 @@ _FITS_TITLE = "Fitted inputs: these results reproduce a reference by constructio
 
 def render_report(data: ReportData) -> tuple[str, str, dict[str, bytes]]:
     """Markdown text, HTML text and ``{png file name: bytes}`` of the report (nothing written)."""
-    pngs: dict[str, bytes] = {}
+    drawn = {}
     figures = []
     for spec in FIGURES:
         fig = spec.draw(data)
         if fig is None:  # a figure that does not apply to this run (no stock, ...)
             continue
         figures.append(spec)
-        pngs[f"report_{spec.key}.png"] = render_png(fig)
+        drawn[f"report_{spec.key}.png"] = fig
+    pngs = render_pngs(drawn)
     table_md = comparison_table([data.summary])
     title = f"feedopt report: {data.scenario}"
     limit = f"Deflection limit: {data.deflection_limit_mm:g} mm."
