@@ -8,13 +8,19 @@ number of threads or on the order in which chunks finish.
 
 ``FEEDOPT_THREADS`` sets the threads (``1``: everything in the caller); the default is the
 number of cores this process may use.
+
+The parallelism is ours (these threads, and the forked children of :mod:`feedopt.background`),
+so a run keeps BLAS on one thread (:func:`single_threaded_blas`): OpenBLAS otherwise threads
+each of our small matrix products and its threads spin between calls, taking the cores our
+own threads and children need.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from typing import TypeVar
 
 from feedopt.errors import InputError
@@ -83,3 +89,20 @@ def for_each_chunk(work: Callable[[T], R], chunks: Iterable[T],
                 f.cancel()
             raise
     return results
+
+
+@contextmanager
+def single_threaded_blas() -> Iterator[None]:
+    """BLAS and LAPACK on one thread inside the block (threadpoolctl); the previous thread
+    counts are restored after it.
+
+    Measured on 2 cores, 1e5 samples (``benchmarks/bench_scale.py``): with OpenBLAS's two
+    threads the run took 4.9-5.3 s and 5.6-6.1 CPU-s in the main process, on one thread
+    4.3 s and 4.1-4.3 CPU-s: the products are small ((k, 6) x (6, 3 M) per chunk), so
+    OpenBLAS's threads spent their time spinning, on cores that our chunk threads and
+    children needed.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield

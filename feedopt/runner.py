@@ -27,6 +27,7 @@ from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints
 from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
+from feedopt.parallel import single_threaded_blas
 from feedopt.process.program import apply_program
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
 from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
@@ -685,6 +686,21 @@ def run_scenario(
     laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
     dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite)
+    with single_threaded_blas():  # our threads and children use the cores (feedopt.parallel)
+        summary, prepared, results, output_times = _run_in(
+            scenario, base_dir, dest, laws, export_unverified, spacing_mm, report, progress)
+    return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,
+                     table=comparison_table([summary], [scenario.name]),
+                     profile=_profile(prepared, results, output_times,
+                                      time.perf_counter() - t_start))
+
+
+def _run_in(scenario: Scenario, base_dir: Path, dest: outdir.Destination, laws: list[str],
+            export_unverified: bool, spacing_mm: float | None, report: bool,
+            progress: Progress) -> tuple[dict, Prepared, dict[str, LawResult], dict]:
+    """The stages of :func:`run_scenario` into ``dest``'s staging folder, committed at the
+    end (discarded on failure): the summary, the prepared stages, the laws' results and the
+    output stage's times."""
     # children that import matplotlib (the report) and cvxpy (convex) on the other core
     # while this one prepares; convex is then planned there beside the other laws
     drawing = report_worker() if report else None
@@ -708,10 +724,7 @@ def run_scenario(
             drawing.join(cancel=True)
         if dest.staging.exists():
             outdir.discard(dest)
-    return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,
-                     table=comparison_table([summary], [scenario.name]),
-                     profile=_profile(prepared, results, output_times,
-                                      time.perf_counter() - t_start))
+    return summary, prepared, results, output_times
 
 
 def validate_scenario(scenario_path: str | Path) -> str:

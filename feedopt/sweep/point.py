@@ -143,14 +143,16 @@ def evaluate_point(bundle: Bundle, axes: Sequence[Axis], values: Sequence[Number
     settings
         Laws to run, spacing override, extra metrics.
     """
+    from feedopt.parallel import single_threaded_blas
     from feedopt.runner import plan_and_verify, prepare
 
     values = tuple(values)
     t0 = time.perf_counter()
     try:
         scenario, base = scenario_at(bundle, axes, values)
-        prepared = prepare(scenario, base, _quiet, spacing_mm=settings.spacing_mm)
-        results = plan_and_verify(prepared, list(settings.laws), _quiet)
+        with single_threaded_blas():  # the sweep's workers use the cores (feedopt.parallel)
+            prepared = prepare(scenario, base, _quiet, spacing_mm=settings.spacing_mm)
+            results = plan_and_verify(prepared, list(settings.laws), _quiet)
         if not results:
             raise InputError("no timing law planned this point: "
                              + "; ".join(prepared.declined.values()))
