@@ -5,6 +5,7 @@ import threading
 import pytest
 
 from feedopt.parallel import for_each_chunk, worker_threads
+from tests.conftest import SCENARIOS
 
 
 def test_results_in_order_on_several_threads() -> None:
@@ -51,3 +52,47 @@ def test_a_bad_thread_count_is_refused_by_name(monkeypatch, value: str) -> None:
     monkeypatch.setenv("FEEDOPT_THREADS", value)
     with pytest.raises(InputError, match=f"FEEDOPT_THREADS is '{value}'; it must be a whole"):
         worker_threads()
+
+
+def _blas_threads() -> list[int]:
+    import numpy  # noqa: F401 - loads numpy's BLAS
+    from threadpoolctl import threadpool_info
+
+    return [lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"]
+
+
+def test_single_threaded_blas_inside_and_restored_after() -> None:
+    from threadpoolctl import threadpool_limits
+
+    from feedopt.parallel import single_threaded_blas
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _blas_threads()
+        with single_threaded_blas():
+            assert _blas_threads() and set(_blas_threads()) == {1}
+        assert _blas_threads() == before
+
+
+def test_a_run_plans_with_single_threaded_blas(monkeypatch, tmp_path) -> None:
+    """The stages of a run see one BLAS thread (run_scenario's block), and after the run
+    the caller's setting is back."""
+    from threadpoolctl import threadpool_limits
+
+    from feedopt import runner
+    from feedopt.errors import InputError
+
+    seen = []
+
+    def stop(*_a, **_k):
+        seen.append(_blas_threads())
+        raise InputError("stop here")
+
+    monkeypatch.setattr(runner, "prepare", stop)
+    with threadpool_limits(limits=2, user_api="blas"):
+        before = _blas_threads()
+        with pytest.raises(InputError, match="stop here"):
+            runner.run_scenario(SCENARIOS / "triangle_slot.yaml", out_dir=tmp_path / "out",
+                                report=False, progress=lambda _m: None)
+        assert _blas_threads() == before
+    assert seen and set(seen[0]) == {1}
+    assert not (tmp_path / "out").exists()
