@@ -37,7 +37,7 @@ from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
 from feedopt.schedule.compensation import CompensatedPath, CompensationCheck
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
-from feedopt.schedule.polynomial import sample_pieces
+from feedopt.schedule.polynomial import sample_piece_chunks
 from feedopt.schedule.stage import ScheduleInputs, schedule_problem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM, MS
@@ -490,8 +490,8 @@ class RunResult:
 def _monotone_within_path(trajectory: Trajectory, length: float) -> bool:
     """s(t) stays in [0, L] (a reversing law cannot be resampled onto the path)."""
     pp = trajectory.timing
-    s = pp(sample_pieces(pp.x, 9))
-    return bool(s.min() >= -1e-9 and s.max() <= length + 1e-9)
+    return all(s.min() >= -1e-9 and s.max() <= length + 1e-9
+               for s in map(pp, sample_piece_chunks(pp.x, 9)))
 
 
 def write_outputs(

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.schedule.polynomial import horner, sample_pieces
+from feedopt.schedule.polynomial import horner, sample_piece_chunks, sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
@@ -297,6 +297,44 @@ def find_ramps(
     return start, stop, cutting
 
 
+@dataclass(frozen=True)
+class Extreme:
+    """An extreme value of the motion and where it is: time [s] and arc length [m]."""
+
+    value: float
+    t: float
+    s: float
+
+
+@dataclass(frozen=True)
+class DenseExtrema:
+    """Extremes over :data:`_POINTS_PER_PIECE` points in every polynomial piece: the largest
+    |acceleration| and |jerk|, the smallest and largest feed (SI units)."""
+
+    max_accel: Extreme
+    max_jerk: Extreme
+    min_feed: Extreme
+    max_feed: float
+
+
+def dense_extrema(trajectory: Trajectory, points: int = _POINTS_PER_PIECE) -> DenseExtrema:
+    """:class:`DenseExtrema` of ``trajectory``, evaluated a chunk of pieces at a time
+    (:func:`~feedopt.schedule.polynomial.sample_piece_chunks`): a law with a piece per path
+    sample has 9e6 points at 1e6 samples, 0.5 GB if evaluated at once. The first point
+    reaching an extreme is the one reported, as ``np.argmax`` over all points would."""
+    best: dict[str, Extreme] = {}
+    max_feed = -np.inf
+    for m in trajectory.at_each(sample_piece_chunks(trajectory.timing.x, points)):
+        for name, values, sign in (("max_accel", np.abs(m.sddot), 1.0),
+                                   ("max_jerk", np.abs(m.sdddot), 1.0),
+                                   ("min_feed", m.sdot, -1.0)):
+            i = int(np.argmax(sign * values))
+            if name not in best or sign * values[i] > sign * best[name].value:
+                best[name] = Extreme(float(values[i]), float(m.t[i]), float(m.s[i]))
+        max_feed = max(max_feed, float(np.max(m.sdot)))
+    return DenseExtrema(best["max_accel"], best["max_jerk"], best["min_feed"], max_feed)
+
+
 def check_timing(
     trajectory: Trajectory,
     problem: ScheduleProblem,
@@ -344,34 +382,30 @@ def check_timing(
         )
 
     # Dense evaluation per piece for acceleration / jerk extrema.
-    dense = trajectory.at(sample_pieces(pp.x, _POINTS_PER_PIECE))
-    i_acc = int(np.argmax(np.abs(dense.sddot)))
-    i_jerk = int(np.argmax(np.abs(dense.sdddot)))
-    max_accel = float(abs(dense.sddot[i_acc]))
-    max_jerk = float(abs(dense.sdddot[i_jerk]))
+    dense = dense_extrema(trajectory)
+    max_accel, max_jerk = dense.max_accel.value, dense.max_jerk.value
 
-    def where(i: int) -> str:
-        return f"at t = {dense.t[i]:.4f} s, s = {dense.s[i] / MM:.3f} mm"
+    def where(e: Extreme) -> str:
+        return f"at t = {e.t:.4f} s, s = {e.s / MM:.3f} mm"
 
     if max_accel > problem.accel_max * (1 + rtol):
         report(
             Violation.ACCELERATION,
             f"tangential acceleration {max_accel / MM:.6g} mm/s^2 exceeds its limit "
-            f"{problem.accel_max / MM:.6g} mm/s^2 {where(i_acc)}"
+            f"{problem.accel_max / MM:.6g} mm/s^2 {where(dense.max_accel)}"
         )
     if np.isfinite(problem.jerk_max) and trajectory.continuity >= 2:
         if max_jerk > problem.jerk_max * (1 + rtol):
             report(
                 Violation.JERK,
                 f"tangential jerk {max_jerk / MM:.6g} mm/s^3 exceeds its limit "
-                f"{problem.jerk_max / MM:.6g} mm/s^3 {where(i_jerk)}"
+                f"{problem.jerk_max / MM:.6g} mm/s^3 {where(dense.max_jerk)}"
             )
-    i_min = int(np.argmin(dense.sdot))
-    if dense.sdot[i_min] < -1e-9 * max(1.0, float(np.max(dense.sdot))):
+    if dense.min_feed.value < -1e-9 * max(1.0, dense.max_feed):
         report(
             Violation.REVERSAL,
-            f"the path velocity becomes negative ({dense.sdot[i_min] / MM:.4g} mm/s "
-            f"{where(i_min)}): the tool would reverse"
+            f"the path velocity becomes negative ({dense.min_feed.value / MM:.4g} mm/s "
+            f"{where(dense.min_feed)}): the tool would reverse"
         )
 
     v_jump = breakpoint_jumps(trajectory, 1)
@@ -431,7 +465,7 @@ def check_timing(
         lower_bound=problem.lower_bound_time(),
         feed_ratio=float(ratio[worst]),
         worst_sample=worst,
-        max_feed=float(np.max(dense.sdot)),
+        max_feed=dense.max_feed,
         min_cutting_feed=cutting,
         max_accel=max_accel,
         max_jerk=max_jerk,

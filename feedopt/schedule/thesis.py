@@ -44,7 +44,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.schedule.checks import check_boundary_feeds
-from feedopt.schedule.polynomial import sample_pieces
+from feedopt.schedule.polynomial import sample_piece_chunks
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.quintic import QuinticPieces, fit_length, quintic_ramp_duration
 from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
@@ -582,9 +582,11 @@ def plan_thesis(problem: ScheduleProblem, options: ThesisOptions | None = None) 
     result = _lower_feeds(problem, layout, options)
 
     pp = fit_length(result.pieces.ppoly(), problem.length)
-    t_dense = sample_pieces(pp.x, _STATS_POINTS)
-    max_accel = float(np.max(np.abs(pp.derivative(2)(t_dense))))
-    max_jerk = float(np.max(np.abs(pp.derivative(3)(t_dense))))
+    d2, d3 = pp.derivative(2), pp.derivative(3)
+    max_accel = max_jerk = 0.0
+    for t_dense in sample_piece_chunks(pp.x, _STATS_POINTS):
+        max_accel = max(max_accel, float(np.max(np.abs(d2(t_dense)))))
+        max_jerk = max(max_jerk, float(np.max(np.abs(d3(t_dense)))))
     feed = result.feed
     worst = int(np.argmax(result.sample_ratio))
     stats = ThesisStats(

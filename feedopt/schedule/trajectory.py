@@ -11,7 +11,7 @@ reports about itself is a typed :class:`LawStats` (each law's ``<Law>Stats``), w
 from __future__ import annotations
 
 import enum
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -131,13 +131,19 @@ class Trajectory:
 
     def at(self, t: np.ndarray) -> Motion:
         """Evaluate s and its first three time derivatives at times ``t`` [s]."""
-        t = np.clip(np.asarray(t, dtype=float), self.timing.x[0], self.timing.x[-1])
+        return next(self.at_each([t]))
+
+    def at_each(self, times: Iterable[np.ndarray]) -> Iterator[Motion]:
+        """:meth:`at` of each array of times in turn, the derivative polynomials formed once
+        (a long job evaluated chunk by chunk)."""
         pp = self.timing
         d1 = pp.derivative(1)
         d2 = pp.derivative(2)
         d3 = pp.derivative(3) if pp.c.shape[0] > 3 else None
-        sdddot = d3(t) if d3 is not None else np.zeros_like(t)
-        return Motion(t=t, s=pp(t), sdot=d1(t), sddot=d2(t), sdddot=sdddot)
+        for t in times:
+            t = np.clip(np.asarray(t, dtype=float), pp.x[0], pp.x[-1])
+            sdddot = d3(t) if d3 is not None else np.zeros_like(t)
+            yield Motion(t=t, s=pp(t), sdot=d1(t), sddot=d2(t), sdddot=sdddot)
 
     def sample_uniform(self, dt: float) -> Motion:
         """Evaluate at the uniform times ``k dt`` (the RSI cycle) up to the first one at or
