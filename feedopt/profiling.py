@@ -23,7 +23,8 @@ _BAR_DELAY_S = 2.0
 
 
 @contextmanager
-def progress_bar(progress: Progress, what: str) -> Iterator[Callable[[int, int], None] | None]:
+def progress_bar(progress: Progress, what: str, unit: str = " samples",
+                 unit_scale: bool = True) -> Iterator[Callable[[int, int], None] | None]:
     """``update(done, total)`` drawing a tqdm bar on stderr for a long stage, or None.
 
     Only for the console's own progress (:func:`_stderr_progress`) on a terminal: a caller
@@ -40,7 +41,7 @@ def progress_bar(progress: Progress, what: str) -> Iterator[Callable[[int, int],
 
     def update(done: int, total: int) -> None:
         if not bars:
-            bars.append(tqdm(total=total, desc=what, unit=" samples", unit_scale=True,
+            bars.append(tqdm(total=total, desc=what, unit=unit, unit_scale=unit_scale,
                              file=sys.stderr, delay=_BAR_DELAY_S, leave=False,
                              dynamic_ncols=True))
         bar = bars[0]

@@ -352,31 +352,39 @@ def plan_and_verify(
         for worker in workers.values():
             worker.join(cancel=True)
         workers = {}
-    for law in order:
-        worker = workers.pop(law, None)
-        if worker is not None:
-            worker.submit(_plan_law_timed, law, prepared.problem,
-                          {k: context[k] for k in LAWS[law].uses_context if k in context},
-                          options.options_for(law))
-            sent[law] = worker
-            continue
-        t0 = time.perf_counter()
-        try:
-            planned[law] = plan_law(law, prepared.problem, context,
-                                    options=options.options_for(law))
-        except LawNotApplicable as exc:
-            prepared.declined[law] = str(exc)
-            progress(f"[5/5] {law}: declined: {exc}")
-            continue
-        planning_time[law] = time.perf_counter() - t0
-    for law, worker in sent.items():
-        try:
-            planned[law], planning_time[law] = worker.join(reraise=True)
-        except LawNotApplicable as exc:
-            prepared.declined[law] = str(exc)
-            progress(f"[5/5] {law}: declined: {exc}")
-        else:
-            context[law] = planned[law]
+    with progress_bar(progress, "[5/5] planning", " laws", False) as bar:
+        done = 0
+        for law in order:
+            worker = workers.pop(law, None)
+            if worker is not None:
+                worker.submit(_plan_law_timed, law, prepared.problem,
+                              {k: context[k] for k in LAWS[law].uses_context if k in context},
+                              options.options_for(law))
+                sent[law] = worker
+                continue
+            t0 = time.perf_counter()
+            try:
+                planned[law] = plan_law(law, prepared.problem, context,
+                                        options=options.options_for(law))
+            except LawNotApplicable as exc:
+                prepared.declined[law] = str(exc)
+                progress(f"[5/5] {law}: declined: {exc}")
+            else:
+                planning_time[law] = time.perf_counter() - t0
+            done += 1
+            if bar is not None:
+                bar(done, len(order))
+        for law, worker in sent.items():
+            try:
+                planned[law], planning_time[law] = worker.join(reraise=True)
+            except LawNotApplicable as exc:
+                prepared.declined[law] = str(exc)
+                progress(f"[5/5] {law}: declined: {exc}")
+            else:
+                context[law] = planned[law]
+            done += 1
+            if bar is not None:
+                bar(done, len(order))
     planned = {law: planned[law] for law in order if law in planned}  # registry order
 
     results: dict[str, LawResult] = {}
@@ -502,6 +510,7 @@ def write_outputs(
     report: bool = True,
     times: dict[tuple[str, str], float] | None = None,
     drawing: background.Prestarted | None = None,
+    progress: Progress | None = None,
 ) -> dict:
     """Every registered exporter's files, summary.json and the report into ``out_dir``.
 
@@ -509,7 +518,8 @@ def write_outputs(
     samples and every exporter of the law) and ``("report", "")`` (the report is drawn in a
     forked child while the exporters write: its row is the wait after them). ``drawing``: a
     child started with :func:`report_worker` before planning, which has imported the plotting
-    libraries meanwhile (else one is forked here).
+    libraries meanwhile (else one is forked here). ``progress``: the run's progress (a bar
+    over the exported laws on a terminal).
     """
     times = {} if times is None else times
     from feedopt.export.job import ExportJob, controller_samples, run_exporters
@@ -585,11 +595,14 @@ def write_outputs(
             drawing = background.start(draw, "drawing the report")
     exporting = 0.0
     try:
-        for law, entry, job in pending:
-            t0 = time.perf_counter()
-            entry.update(run_exporters(job, out_dir))
-            times[("export", law)] += time.perf_counter() - t0
-            exporting += time.perf_counter() - t0
+        with progress_bar(progress, "[5/5] export", " laws", False) as bar:
+            for done, (law, entry, job) in enumerate(pending, start=1):
+                t0 = time.perf_counter()
+                entry.update(run_exporters(job, out_dir))
+                times[("export", law)] += time.perf_counter() - t0
+                exporting += time.perf_counter() - t0
+                if bar is not None:
+                    bar(done, len(pending))
     except BaseException:
         if drawing is not None:
             drawing.join(cancel=True)
@@ -715,7 +728,7 @@ def _run_in(scenario: Scenario, base_dir: Path, dest: outdir.Destination, laws: 
                 prepared.declined.values()) + " — add convex or jerk to schedule.laws / --laws")
         output_times: dict[tuple[str, str], float] = {}
         summary = write_outputs(prepared, results, dest.staging, export_unverified, report,
-                                output_times, drawing)
+                                output_times, drawing, progress)
         outdir.commit(dest)
     finally:
         for worker in workers.values():  # not sent a law (a failed run): the child leaves

@@ -84,3 +84,15 @@ def test_progress_bar_only_for_the_console_on_a_terminal(monkeypatch):
     monkeypatch.setattr(profiling.sys, "stderr", io.StringIO())  # redirected: no terminal
     with profiling.progress_bar(runner._stderr_progress, "x") as update:
         assert update is None
+
+
+def test_planning_and_export_show_bars_over_the_laws(monkeypatch, tmp_path):
+    """The two stages without a per-sample loop (each law is one call) count laws."""
+    monkeypatch.setattr(profiling, "_BAR_DELAY_S", 0.0)
+    tty = _Tty()
+    monkeypatch.setattr(profiling.sys, "stderr", tty)
+    runner.run_scenario(SCENARIOS / "triangle_slot.yaml", out_dir=tmp_path / "o",
+                        laws=["constant", "jerk"], spacing_mm=2.0, report=False)
+    text = tty.getvalue()
+    assert "[5/5] planning:" in text and "/2 [" in text and " laws/s" in text
+    assert "[5/5] export:" in text and "/1 [" in text  # jerk only: constant is not exported
