@@ -94,6 +94,16 @@ def test_bound_and_replay_report_their_progress(monkeypatch) -> None:
         assert all(total == n for _, total in seen)
 
 
+def _mixed_terms(n: int, mode: str) -> deflection_module.AngleTerms:
+    """Angle terms of ``n`` samples over two engagements; ``direction`` mode along a fixed
+    oblique base-frame direction."""
+    model = _model(n=n, mode=mode, engagement=_two_engagements(n))
+    if mode == "direction":
+        model = deflection_module.DeflectionModel(**{**model.__dict__,
+                                                     "direction": np.array([0.3, 1.0, 0.2])})
+    return model.angle_terms(slice(0, n))
+
+
 @pytest.mark.parametrize("block", [1, 7, 256])
 def test_blocked_extreme_is_the_whole_array_extreme(block: int) -> None:
     """Row blocks give numpy's argmax / argmin over the whole array, ties included."""
@@ -111,11 +121,7 @@ def test_largest_magnitude_is_the_max_of_the_magnitudes(mode: str, monkeypatch) 
     whole (k, M) array of roots), and the zero-feed one that of :meth:`zero_feed`."""
     monkeypatch.setattr(deflection_module, "_ROWS_PER_BLOCK", 5)
     n = 23
-    model = _model(n=n, mode=mode, engagement=_two_engagements(n))
-    if mode == "direction":
-        model = deflection_module.DeflectionModel(**{**model.__dict__,
-                                                     "direction": np.array([1.0, 2.0, 0.5])})
-    terms = model.angle_terms(slice(0, n))
+    terms = _mixed_terms(n, mode)
     c = np.linspace(0.0, 2e-4, n)
     for got, whole in ((terms.largest_magnitude(c), terms.magnitude(c)),
                        (terms.largest_zero_feed(), terms.zero_feed())):
@@ -129,11 +135,7 @@ def test_smallest_upper_root_is_the_min_of_the_roots(mode: str, monkeypatch) -> 
 
     monkeypatch.setattr(deflection_module, "_ROWS_PER_BLOCK", 4)
     n = 19
-    model = _model(n=n, mode=mode, engagement=_two_engagements(n))
-    if mode == "direction":
-        model = deflection_module.DeflectionModel(**{**model.__dict__,
-                                                     "direction": np.array([0.3, 1.0, 0.2])})
-    terms = model.angle_terms(slice(0, n))
+    terms = _mixed_terms(n, mode)
     roots = upper_roots(terms, 0.29e-3)
     got = smallest_upper_root(terms, 0.29e-3)
     np.testing.assert_array_equal(got.index, roots.argmin(axis=1))
