@@ -48,11 +48,14 @@ class Background:
         if self.pid is None:
             return self.result
         pid, self.pid = self.pid, None
-        if cancel:
+        if cancel:  # no answer wanted: do not wait for the pipe's end
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
+            os.close(self.read_fd)
+            os.waitpid(pid, 0)
+            return None
         chunks = []
         while True:
             chunk = os.read(self.read_fd, 1 << 20)
@@ -61,8 +64,6 @@ class Background:
             chunks.append(chunk)
         os.close(self.read_fd)
         _, status = os.waitpid(pid, 0)
-        if cancel:
-            return None
         try:
             kind, value, text = pickle.loads(b"".join(chunks))
         except Exception:  # noqa: BLE001 - a child that died before it could answer
@@ -86,8 +87,15 @@ def start(function: Callable[[], Any], what: str) -> Background:
     return _fork(function, what, ())
 
 
+#: In a forked child, the write end of the pipe its answer goes to. A child that forks one
+#: more closes it there, so that the pipe's reader sees its end when the child itself ends
+#: (a cancelled child's own children do not hold it open).
+_ANSWER_FD: int | None = None
+
+
 def _fork(function: Callable[[], Any], what: str, close_in_child: tuple[int, ...]
           ) -> Background:
+    global _ANSWER_FD
     sys.stdout.flush()
     sys.stderr.flush()
     read_fd, write_fd = os.pipe()
@@ -96,8 +104,9 @@ def _fork(function: Callable[[], Any], what: str, close_in_child: tuple[int, ...
         code = 0
         try:
             os.close(read_fd)
-            for fd in close_in_child:
+            for fd in close_in_child + ((_ANSWER_FD,) if _ANSWER_FD is not None else ()):
                 os.close(fd)
+            _ANSWER_FD = write_fd
             for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
                 signal.signal(sig, signal.SIG_DFL)  # the parent decides; this may just die
             answer = pickle.dumps(("ok", function(), ""), protocol=pickle.HIGHEST_PROTOCOL)

@@ -97,3 +97,20 @@ def test_the_value_comes_back_and_the_child_s_own_exception_on_request() -> None
         background.start(bad_input, "planning").join(reraise=True)
     with pytest.raises(background.BackgroundFailed, match="planning failed: InputError"):
         background.start(bad_input, "planning").join()
+
+
+def test_cancelling_a_child_does_not_wait_for_its_own_child(tmp_path: Path) -> None:
+    """A child that forked one more (the report renders half its figures in a grandchild):
+    cancelling it returns at once, and a nested child's answer still comes back."""
+    import time
+
+    def nested() -> str:
+        inner = background.start(lambda: (time.sleep(3.0), "inner")[1], "sleeping")
+        return inner.join()
+
+    assert background.start(nested, "nesting").join() == "inner"
+    child = background.start(nested, "nesting")
+    time.sleep(0.3)  # the grandchild is asleep by now
+    t0 = time.perf_counter()
+    assert child.join(cancel=True) is None
+    assert time.perf_counter() - t0 < 1.5
