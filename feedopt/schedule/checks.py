@@ -321,17 +321,20 @@ def dense_extrema(trajectory: Trajectory, points: int = _POINTS_PER_PIECE) -> De
     """:class:`DenseExtrema` of ``trajectory``, evaluated a chunk of pieces at a time
     (:func:`~feedopt.schedule.polynomial.sample_piece_chunks`): a law with a piece per path
     sample has 9e6 points at 1e6 samples, 0.5 GB if evaluated at once. The first point
-    reaching an extreme is the one reported, as ``np.argmax`` over all points would."""
+    reaching an extreme is the one reported, as ``np.argmax`` over all points would, and a
+    NaN is, as there, the extreme (the first NaN)."""
     best: dict[str, Extreme] = {}
     max_feed = -np.inf
     for m in trajectory.at_each(sample_piece_chunks(trajectory.timing.x, points)):
         for name, values, sign in (("max_accel", np.abs(m.sddot), 1.0),
                                    ("max_jerk", np.abs(m.sdddot), 1.0),
                                    ("min_feed", m.sdot, -1.0)):
-            i = int(np.argmax(sign * values))
-            if name not in best or sign * values[i] > sign * best[name].value:
+            i = int(np.argmax(sign * values))  # the first NaN if there is one
+            old = best.get(name)
+            if old is None or (not np.isnan(old.value) and (
+                    np.isnan(values[i]) or sign * values[i] > sign * old.value)):
                 best[name] = Extreme(float(values[i]), float(m.t[i]), float(m.s[i]))
-        max_feed = max(max_feed, float(np.max(m.sdot)))
+        max_feed = float(np.maximum(max_feed, np.max(m.sdot)))  # NaN stays NaN
     return DenseExtrema(best["max_accel"], best["max_jerk"], best["min_feed"], max_feed)
 
 

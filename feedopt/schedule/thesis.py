@@ -584,9 +584,9 @@ def plan_thesis(problem: ScheduleProblem, options: ThesisOptions | None = None) 
     pp = fit_length(result.pieces.ppoly(), problem.length)
     d2, d3 = pp.derivative(2), pp.derivative(3)
     max_accel = max_jerk = 0.0
-    for t_dense in sample_piece_chunks(pp.x, _STATS_POINTS):
-        max_accel = max(max_accel, float(np.max(np.abs(d2(t_dense)))))
-        max_jerk = max(max_jerk, float(np.max(np.abs(d3(t_dense)))))
+    for t_dense in sample_piece_chunks(pp.x, _STATS_POINTS):  # np.maximum keeps a NaN
+        max_accel = float(np.maximum(max_accel, np.max(np.abs(d2(t_dense)))))
+        max_jerk = float(np.maximum(max_jerk, np.max(np.abs(d3(t_dense)))))
     feed = result.feed
     worst = int(np.argmax(result.sample_ratio))
     stats = ThesisStats(

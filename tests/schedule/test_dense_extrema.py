@@ -54,3 +54,17 @@ def test_ties_report_the_first_point(monkeypatch) -> None:
     traj = Trajectory(law="test", timing=PPoly(c, x), continuity=1)
     got = dense_extrema(traj)
     assert got.max_accel.value == 1.0 and got.max_accel.t == 0.0
+
+
+@pytest.mark.parametrize("chunk", [3, 1 << 15])
+def test_a_nan_is_the_extreme_as_in_one_pass(chunk: int, monkeypatch) -> None:
+    """A NaN coefficient in a late piece: every extreme is NaN, as numpy's over all points."""
+    monkeypatch.setattr(polynomial, "PIECES_PER_CHUNK", chunk)
+    traj = _random_trajectory(10, 6)
+    traj.timing.c[2, 8] = np.nan
+    m = traj.at(sample_pieces(traj.timing.x, 9))
+    got = dense_extrema(traj)
+    i = int(np.argmax(np.abs(m.sddot)))  # numpy: the first NaN
+    assert np.isnan(got.max_accel.value) and got.max_accel.t == m.t[i]
+    assert np.isnan(got.max_jerk.value) and np.isnan(got.min_feed.value)
+    assert np.isnan(got.max_feed)
