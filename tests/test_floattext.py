@@ -84,3 +84,14 @@ def test_non_finite_and_wrong_shape_are_refused():
 def test_non_contiguous_and_integer_input():
     m = np.arange(12, dtype=np.int64).reshape(3, 4)
     assert format_float_rows(m[:, ::2]) == "0.0,2.0\n4.0,6.0\n8.0,10.0\n"
+
+
+def test_refuse_non_finite_names_the_first_bad_value() -> None:
+    from feedopt.floattext import refuse_non_finite
+
+    m = np.zeros((4, 3))
+    refuse_non_finite(m, ("a", "b", "c"), "table", "x.csv")  # finite: nothing
+    m[2, 1], m[3, 0] = np.inf, np.nan
+    with pytest.raises(ValueError, match=r"table has a non-finite value inf in column 'b', row 2; "
+                                         r"refusing to write x.csv"):
+        refuse_non_finite(m, ("a", "b", "c"), "table", "x.csv")

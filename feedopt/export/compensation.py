@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.export.job import Exporter, ExportJob, status_line
-from feedopt.floattext import write_float_rows
+from feedopt.floattext import refuse_non_finite, write_float_rows
 from feedopt.units import MM_PER_M
 
 COLUMNS = ("t_s", "s_mm", "nominal_x_mm", "nominal_y_mm", "nominal_z_mm", "commanded_x_mm",
@@ -30,6 +30,7 @@ def export_compensation(job: ExportJob, out_dir: Path) -> dict:
     m = np.column_stack([motion.t, s * MM_PER_M, nominal * MM_PER_M, commanded * MM_PER_M,
                          (commanded - nominal) * MM_PER_M])
     name = f"{job.law}_compensation.csv"
+    refuse_non_finite(m, COLUMNS, "compensation table", out_dir / name)
     with (out_dir / name).open("w", encoding="ascii", newline="\n") as f:
         f.write(f"# {status_line(job)}\n"
                 "# compensation: commanded = nominal - predicted mean deflection of a cutter "

@@ -23,7 +23,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.job import Exporter, ExportJob, status_line
-from feedopt.floattext import write_float_rows
+from feedopt.floattext import refuse_non_finite, write_float_rows
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
@@ -191,13 +191,7 @@ def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = (
     m = table.as_matrix()
     if m.shape[0] == 0:
         raise ValueError(f"RSI table is empty; refusing to write {path}")
-    bad = ~np.isfinite(m)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise ValueError(
-            f"RSI table has a non-finite value {float(m[row, col])!r} in column {COLUMNS[col]!r}, "
-            f"row {row}; refusing to write {path}"
-        )
+    refuse_non_finite(m, COLUMNS, "RSI table", path)
     lines = [f"# {c}" for c in _HEADER_DOC]
     lines.append(f"# {_cycle_comment(table.t_s)}")
     for c in comments:

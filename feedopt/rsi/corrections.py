@@ -26,8 +26,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from feedopt import floattext
 from feedopt.errors import InputError
-from feedopt.floattext import ROWS_PER_BLOCK, format_float_rows
+from feedopt.floattext import refuse_non_finite
 
 if TYPE_CHECKING:  # types only: the export package imports this module (rsi_program)
     from feedopt.export.rsi import RsiTable
@@ -201,10 +202,12 @@ def write_corrections_csv(path: str | Path, plan: CorrectionPlan, mode: Correcti
     lines.append(",".join(COLUMNS))
     answers = plan.answers(mode)
     path = Path(path)
+    refuse_non_finite(plan.t_s[:, None], COLUMNS[:1], "RSI corrections", path)
+    refuse_non_finite(answers, COLUMNS[1:], "RSI corrections", path)
     with path.open("w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(lines) + "\n")
-        for start in range(0, len(plan), ROWS_PER_BLOCK):
-            stop = start + ROWS_PER_BLOCK
-            f.write(format_float_rows(
+        for start in range(0, len(plan), floattext.ROWS_PER_BLOCK):
+            stop = start + floattext.ROWS_PER_BLOCK
+            f.write(floattext.format_float_rows(
                 np.column_stack([plan.t_s[start:stop], answers[start:stop]])))
     return path

@@ -94,3 +94,17 @@ def test_corrections_csv(default_table, tmp_path, mode) -> None:
     np.testing.assert_array_equal(data[:, 0], default_table.t_s)
     rows = data[:, 1:] if mode is CorrectionMode.ABSOLUTE else np.cumsum(data[:, 1:], axis=0)
     np.testing.assert_allclose(rows + poses(default_table)[0], poses(default_table), atol=1e-8)
+
+
+def test_a_non_finite_correction_is_refused_by_name_before_writing(default_table,
+                                                                   tmp_path) -> None:
+    import dataclasses
+
+    plan = plan_from_table(default_table, CYCLE, "jerk.csv")
+    absolute = plan.absolute.copy()
+    absolute[7, 4] = np.nan
+    bad = dataclasses.replace(plan, absolute=absolute)
+    target = tmp_path / "jerk_rsi.csv"
+    with pytest.raises(ValueError, match=r"'rkorr_b_deg', row 7; refusing to write"):
+        write_corrections_csv(target, bad, CorrectionMode.ABSOLUTE)
+    assert not target.exists()
