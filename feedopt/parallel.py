@@ -96,6 +96,10 @@ def single_threaded_blas() -> Iterator[None]:
     """BLAS and LAPACK on one thread inside the block (threadpoolctl); the previous thread
     counts are restored after it.
 
+    The limit is the process's: blocks that overlap in several threads of one process (a
+    Dask worker with several threads running sweep points) may leave BLAS on one thread
+    after the last of them, which is what such a worker wants anyway.
+
     Measured on 2 cores, 1e5 samples (``benchmarks/bench_scale.py``): with OpenBLAS's two
     threads the run took 4.9-5.3 s and 5.6-6.1 CPU-s in the main process, on one thread
     4.3 s and 4.1-4.3 CPU-s: the products are small ((k, 6) x (6, 3 M) per chunk), so

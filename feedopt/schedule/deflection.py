@@ -542,7 +542,12 @@ _ROWS_PER_BLOCK = 256
 @dataclass(frozen=True)
 class GridExtreme:
     """Per sample (k,), the index of the extreme angle of a per-angle quantity and its value
-    (the first such angle on ties, as ``np.argmax`` / ``np.argmin``)."""
+    (the first such angle on ties, as ``np.argmax`` / ``np.argmin`` of that quantity).
+
+    :meth:`AngleTerms.largest_magnitude` takes it of the squares: two squares a few ulp apart
+    whose roots round to the same value can give a later angle than the argmax of the roots
+    (the value is the same; :meth:`DeflectionModel.refine` then centres its window there).
+    """
 
     index: np.ndarray
     value: np.ndarray
