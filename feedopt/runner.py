@@ -641,7 +641,7 @@ def _import_law(law: str) -> None:
 def law_workers(laws: list[str]) -> dict[str, background.Prestarted]:
     """A child per requested law with slow imports (:attr:`LawSpec.slow_imports`: cvxpy for
     ``convex``), forked now so that the imports happen on the other core while this one
-    prepares; :func:`plan_and_verify` sends each its law. None where fork is unavailable."""
+    prepares; :func:`plan_and_verify` sends each its law. Empty where fork is unavailable."""
     if not background.fork_available():
         return {}
     return {law: background.prestart(partial(_import_law, law), f"planning {law}")

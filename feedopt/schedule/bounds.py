@@ -126,10 +126,7 @@ def upper_roots(terms: AngleTerms, limit: float) -> np.ndarray:
 def smallest_upper_root(terms: AngleTerms, limit: float) -> GridExtreme:
     """Per sample, the angle with the smallest :func:`upper_roots` and that root, formed in
     blocks of rows that stay in cache (:meth:`GridExtreme.blocked`)."""
-    if terms.quadratic:
-        return GridExtreme.blocked(lambda r: _upper_roots_quadratic(
-            terms.aa[r], terms.ab[r], terms.bb[r], limit), terms.angles.shape[0], "min")
-    return GridExtreme.blocked(lambda r: _upper_roots_projected(terms.a[r], terms.b[r], limit),
+    return GridExtreme.blocked(lambda r: upper_roots(terms.rows(r), limit),
                                terms.angles.shape[0], "min")
 
 

@@ -216,7 +216,8 @@ class DeflectionModel:
         return self._project(sl, split.cutting, split.edge)
 
     def chunk_size(self) -> int:
-        """Samples per chunk of :meth:`chunks`: a (chunk, angles, 3) array stays ~35 MB."""
+        """Samples per chunk of the bound and the replay: a (chunk, angles, 3) array stays
+        ~35 MB."""
         n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
         return max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
 
@@ -496,11 +497,21 @@ class AngleTerms:
         """True for the modes on |d| (``aa``, ``ab``, ``bb`` set)."""
         return self.aa is not None
 
+    def rows(self, r: slice) -> AngleTerms:
+        """The terms of the samples ``r`` (views, no copy)."""
+        return AngleTerms(*(None if v is None else v[r] for v in (self.angles, *self.values())))
+
+    def square(self, c: np.ndarray) -> np.ndarray:
+        """|d|^2 = c^2 aa + 2 c ab + bb [m^2] at feed per tooth ``c`` (k,) [m] (modes on |d|)."""
+        out = np.multiply((c * c)[:, None], self.aa)
+        out += (2.0 * c)[:, None] * self.ab
+        out += self.bb
+        return out
+
     def magnitude(self, c: np.ndarray) -> np.ndarray:
         """The limited deflection |d| (or |d_n|) [m] at feed per tooth ``c`` (k,) [m]."""
         if self.quadratic:
-            square = (c * c)[:, None] * self.aa + (2.0 * c)[:, None] * self.ab + self.bb
-            return np.sqrt(np.maximum(square, 0.0))
+            return np.sqrt(np.maximum(self.square(c), 0.0))
         return np.abs(c[:, None] * self.a + self.b)
 
     def zero_feed(self) -> np.ndarray:
@@ -513,16 +524,8 @@ class AngleTerms:
         that stay in cache and the root is taken of the largest square only (the root is
         monotone, so the value is the same)."""
         if not self.quadratic:
-            return GridExtreme.blocked(
-                lambda r: np.abs(c[r, None] * self.a[r] + self.b[r]), c.size, "max")
-
-        def square(r: slice) -> np.ndarray:
-            out = np.multiply((c[r] * c[r])[:, None], self.aa[r])
-            out += (2.0 * c[r])[:, None] * self.ab[r]
-            out += self.bb[r]
-            return out
-
-        extreme = GridExtreme.blocked(square, c.size, "max")
+            return GridExtreme.blocked(lambda r: self.rows(r).magnitude(c[r]), c.size, "max")
+        extreme = GridExtreme.blocked(lambda r: self.rows(r).square(c[r]), c.size, "max")
         return GridExtreme(extreme.index, np.sqrt(np.maximum(extreme.value, 0.0)))
 
     def largest_zero_feed(self) -> GridExtreme:
