@@ -9,7 +9,8 @@ only when everything succeeded. What may be replaced is decided before any plann
 - any other existing folder is refused unless ``overwrite`` is given; then feedopt writes its
   files into it, replacing only files of the same names and keeping every other file;
 - a destination that is a file, or that is the current directory, the scenario's folder or
-  one of their parents, is always refused.
+  one of their parents, or that is or holds one of the run's input files (tool, material,
+  path file, stock mesh, robot files), is always refused, ``overwrite`` or not.
 
 Staging folders carry :data:`STAGING_MARKER` with the pid of their run, so a later run can
 remove the ones a killed run (SIGKILL, power loss) left behind, and nothing else.
@@ -28,11 +29,14 @@ from pathlib import Path
 
 from feedopt import __version__
 from feedopt.errors import InputError
+from feedopt.textio import read_user_text
 
 #: Written into every output folder: which files feedopt wrote there.
 MARKER = ".feedopt-output.json"
 #: Written into every staging folder: the pid of the run that owns it.
 STAGING_MARKER = ".feedopt-staging"
+#: Largest marker read: far more than a run's list of files.
+MAX_MARKER_BYTES = 2**20
 
 
 class DestinationKind(Enum):
@@ -61,10 +65,10 @@ def _is_same_or_parent(candidate: Path, of: Path) -> bool:
 def _own_files(folder: Path) -> set[str] | None:
     """Names listed in ``folder``'s marker, or None if it has no readable marker."""
     marker = folder / MARKER
-    try:
-        doc = json.loads(marker.read_text(encoding="utf-8"))
+    try:  # the capped reader: a FIFO or a huge file of that name is not ours (and not opened)
+        doc = json.loads(read_user_text(marker, "output marker", max_bytes=MAX_MARKER_BYTES))
         files = doc["files"]
-    except (OSError, ValueError, KeyError, TypeError):
+    except (InputError, ValueError, KeyError, TypeError, RecursionError):
         return None
     if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
         return None
@@ -85,11 +89,30 @@ def _describe(names: list[str], limit: int = 5) -> str:
     return shown + (f" and {len(names) - limit} more" if len(names) > limit else "")
 
 
-def check_destination(out: Path, protected: Iterable[Path], overwrite: bool) -> DestinationKind:
+def _input_inside(target: Path, inputs: Iterable[Path]) -> str | None:
+    """How ``target`` meets the first of ``inputs`` that is it or inside it (as named, or
+    with its symbolic links resolved): ``"is the input file X"``, ``"holds ..."``; or None."""
+    for inp in inputs:
+        named = Path(os.path.abspath(inp))
+        try:
+            real = named.resolve()
+        except (OSError, RuntimeError):  # a link loop: its name is what counts
+            real = named
+        if target in (named, real):
+            return f"is the input file {inp}"
+        if any(_is_same_or_parent(target, p) for p in (named, real)):
+            return f"holds the input file {inp}"
+    return None
+
+
+def check_destination(out: Path, protected: Iterable[Path], overwrite: bool,
+                      inputs: Iterable[Path] = ()) -> DestinationKind:
     """Decide what a run may do to ``out``; InputError when it must not touch it.
 
     ``protected`` are folders whose contents a run must never replace (the current directory,
     the scenario's folder): ``out`` may be inside them, never equal to or above them.
+    ``inputs`` are the files the run reads (the scenario, its tool, material, path, stock and
+    robot files): ``out`` may not be one of them nor hold one, with or without ``overwrite``.
     """
     from feedopt.outfile import check_name
 
@@ -104,6 +127,11 @@ def check_destination(out: Path, protected: Iterable[Path], overwrite: bool) -> 
                 f"--out {out} {rel} {what}, which holds your files (the scenario, its inputs); "
                 "feedopt writes its results into a folder of their own: choose a new folder "
                 f"such as {out / 'feedopt_out' if target == p else 'out/<name>'}")
+    held = _input_inside(target, inputs)
+    if held is not None:
+        raise InputError(
+            f"--out {out} {held} of this run: feedopt never writes over or replaces its "
+            "inputs (not even with --overwrite); choose a new folder such as out/<name>")
     if target.exists() and not target.is_dir():
         raise InputError(f"--out {out} is an existing file, not a folder: choose a folder name "
                          "(it is created if missing)")
@@ -144,8 +172,8 @@ def remove_stale_staging(parent: Path, name: str) -> list[Path]:
     for folder in parent.glob(f".{name}.feedopt-*"):
         mark = folder / STAGING_MARKER
         try:
-            pid = int(mark.read_text(encoding="utf-8").strip())
-        except (OSError, ValueError):
+            pid = int(read_user_text(mark, "staging marker", max_bytes=64).strip())
+        except (InputError, ValueError):
             continue  # not one of ours, or unreadable: leave it alone
         if pid != os.getpid() and not _pid_alive(pid):
             shutil.rmtree(folder, ignore_errors=True)
@@ -153,13 +181,15 @@ def remove_stale_staging(parent: Path, name: str) -> list[Path]:
     return removed
 
 
-def open_destination(out: Path, protected: Iterable[Path], overwrite: bool) -> Destination:
-    """Check ``out`` and create its staging folder now, before any planning.
+def open_destination(out: Path, protected: Iterable[Path], overwrite: bool,
+                     inputs: Iterable[Path] = ()) -> Destination:
+    """Check ``out`` (see :func:`check_destination`) and create its staging folder now,
+    before any planning.
 
     Creating the staging folder is the writability check: a read-only or impossible location
     fails here with a clear message instead of after minutes of planning.
     """
-    kind = check_destination(out, protected, overwrite)
+    kind = check_destination(out, protected, overwrite, inputs)
     target = out.resolve()
     created: list[Path] = []
     missing = [p for p in [target.parent, *target.parent.parents] if not p.exists()]

@@ -57,9 +57,44 @@ def plot_suffixes() -> tuple[str, ...]:
     return tuple(sorted(out))
 
 
+#: Most entries of an input folder searched for a hard link to an existing target.
+_MAX_FOLDER_SCAN = 100_000
+
+
+def _in_folder(a: Path, folder: Path) -> bool:
+    """Whether the existing file ``a`` (resolved) is one of the files under ``folder``
+    (resolved): by its name, or as a hard link to one of them."""
+    if folder in a.parents:
+        return True
+    st = a.stat()
+    if st.st_nlink < 2:
+        return False
+    seen = 0
+    for root, _dirs, names in os.walk(folder):
+        seen += len(names)
+        for name in names:
+            try:
+                other = os.stat(os.path.join(root, name))
+            except OSError:
+                continue
+            if (other.st_dev, other.st_ino) == (st.st_dev, st.st_ino):
+                return True
+        if seen > _MAX_FOLDER_SCAN:
+            break
+    return False
+
+
 def _same_file(a: Path, b: Path) -> bool:
+    """Whether the resolved target ``a`` is the input ``b``: the same name once links are
+    resolved, the same file (a hard link), or, when ``b`` is a folder, an existing file under
+    it (a new file in it is fine)."""
     try:
-        return a == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
+        b_real = b.resolve()
+        if a == b_real:
+            return True
+        if not (a.exists() and b.exists()):
+            return False
+        return _in_folder(a, b_real) if b_real.is_dir() else os.path.samefile(a, b)
     except (OSError, RuntimeError):
         return False
 
@@ -103,7 +138,9 @@ def check_output_file(
         A file name that would work, used in messages (default: ``out`` plus the first
         allowed suffix or the given one).
     inputs
-        Files the command reads: the output may not be one of them.
+        Files the command reads: the output may not be one of them (nor a hard or symbolic
+        link to one). A folder among them (a robot directory) protects every file under it
+        (a new file in it may be written).
 
     Returns
     -------
@@ -133,6 +170,11 @@ def check_output_file(
     if target.is_dir():
         raise InputError(f"{what} {text} is a folder, not a file: give a file name (e.g. "
                          f"{what} {Path(text) / example})")
+    for inp in inputs:  # first: the one message that matters most
+        if _same_file(target, Path(inp)):
+            kind = "a file of the input folder" if Path(inp).is_dir() else "the input file"
+            raise InputError(f"{what} {text} is {kind} {os.fspath(inp)}: writing it would "
+                             "destroy your input; choose another name")
     if allowed_suffixes is not None:
         allowed = [s.lower() for s in allowed_suffixes]
         if suffix.lower() not in allowed:
@@ -158,10 +200,6 @@ def check_output_file(
         if not os.access(target, os.W_OK):
             raise InputError(f"{what} {text} is read-only: make it writable or choose another "
                              "name")
-    for inp in inputs:
-        if _same_file(target, Path(inp)):
-            raise InputError(f"{what} {text} is the input file {os.fspath(inp)}: writing it would "
-                             "destroy your input; choose another name")
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".feedopt-probe",
                                      dir=parent)

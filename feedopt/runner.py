@@ -34,7 +34,13 @@ from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progre
 from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
-from feedopt.scenario import Scenario, load_scenario, resolve, scenario_warnings
+from feedopt.scenario import (
+    Scenario,
+    load_scenario,
+    resolve,
+    scenario_input_files,
+    scenario_warnings,
+)
 from feedopt.schedule.compensation import CompensatedPath, CompensationCheck
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
 from feedopt.schedule.polynomial import sample_piece_chunks
@@ -698,7 +704,9 @@ def run_scenario(
     scenario, base_dir = load_scenario(scenario_path)
     laws = list(dict.fromkeys(laws or scenario.schedule.laws))
     out = Path(out_dir) if out_dir else Path("out") / scenario.name
-    dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite)
+    inputs = [Path(scenario_path), *scenario_input_files(scenario, base_dir)]
+    dest = outdir.open_destination(out, protected=[Path.cwd(), base_dir], overwrite=overwrite,
+                                   inputs=inputs)
     with single_threaded_blas():  # our threads and children use the cores (feedopt.parallel)
         summary, prepared, results, output_times = _run_in(
             scenario, base_dir, dest, laws, export_unverified, spacing_mm, report, progress)
@@ -741,17 +749,26 @@ def _run_in(scenario: Scenario, base_dir: Path, dest: outdir.Destination, laws: 
 
 
 def validate_scenario(scenario_path: str | Path) -> str:
-    """Check a scenario without planning: schema, files, robot, tool, material, path."""
+    """Check a scenario without planning: schema, files, robot, tool, material, path, stock."""
     from feedopt.process.coefficients import load_coefficients
+    from feedopt.process.material import check_stock
     from feedopt.process.tool import load_tool
 
     scenario, base_dir = load_scenario(scenario_path)
-    load_tool(resolve(base_dir, scenario.tool, "tool file"))
+    tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))
     table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
     table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
+    stock = ""
+    if scenario.stock is not None:  # built (bounded) as a run builds it; path beside it refused
+        zmap = check_stock(scenario.stock, lambda rel, what: resolve(base_dir, rel, what), tool,
+                           _sample(path, scenario.path.spacing_mm * MM).position)
+        units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
+                 else "")
+        stock = (f"; stock {zmap.shape[0]} x {zmap.shape[1]} cells of {zmap.cell / MM:g} mm"
+                 f"{units}")
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
-            f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}")
+            f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}")

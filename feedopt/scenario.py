@@ -11,6 +11,7 @@ reference of every field (generated from this module).
 from __future__ import annotations
 
 import difflib
+import os
 from pathlib import Path
 from typing import Annotated, Literal, get_args, get_origin
 
@@ -28,7 +29,7 @@ from feedopt.geometry.registry import blend_names
 from feedopt.schedule.laws import LAWS as LAW_REGISTRY
 from feedopt.schedule.laws import law_names
 from feedopt.textio import read_user_text
-from feedopt.yamlio import excerpt, parse_yaml
+from feedopt.yamlio import excerpt, parse_yaml, read_yaml
 
 # Allowed laws and blends come from their registries (feedopt.schedule.laws,
 # feedopt.geometry.registry): a new law or blend kind needs no edit here.
@@ -229,11 +230,20 @@ class StockSection(_Strict):
 
     box_mm: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] | None = Field(
         None, description="box of stock in W: [x0, y0, z0, x1, y1, z1] (mm)")
-    mesh: str | None = Field(None, description="closed triangle mesh of the stock (STL, in W, "
-                             "mm); tops per cell by vertical rays")
+    mesh: str | None = Field(None, description="closed triangle mesh of the stock (STL, binary "
+                             "or ASCII, in W, in stock.units); tops per cell by vertical rays")
+    units: Literal["mm", "m"] | None = Field(None, description="units of the stock.mesh STL "
+                                             "coordinates (STL stores none): mm (default, the "
+                                             "CAD convention) or m; only with mesh (box_mm is "
+                                             "in mm)")
+    air_cut: bool = Field(False, description="the path is meant not to cut the stock (an air "
+                          "cut): without it, a path that cuts no material at any sample is "
+                          "refused (stock and path in different places, or mesh units wrong); "
+                          "with it, that is a warning")
     cell_mm: Annotated[float, Field(ge=0.02, le=5.0, allow_inf_nan=False)] = Field(
         0.25, description="Z-map cell size (mm): entry/exit angles within about "
-        "cell / sqrt(2) / (R sin phi) rad (1.1 deg at 0.25 mm, R 9.525 mm)")
+        "cell / sqrt(2) / (R sin phi) rad (1.1 deg at 0.25 mm, R 9.525 mm); a stock may have "
+        "at most 40 million cells (4 bytes each: 1.58 x 1.58 m at 0.25 mm)")
     depth_step_mm: Annotated[float, Field(ge=0.005, le=5.0, allow_inf_nan=False)] = Field(
         0.1, description="axial depth resolution across the cutter (mm): where the material "
         "top under the cutter varies (ramps, helices, steps), the engaged angles are split "
@@ -244,6 +254,9 @@ class StockSection(_Strict):
     def _one_shape(self) -> StockSection:
         if (self.box_mm is None) == (self.mesh is None):
             raise ValueError("give exactly one of box_mm and mesh")
+        if self.units is not None and self.mesh is None:
+            raise ValueError("units applies to stock.mesh only (box_mm is always in mm): "
+                             "remove units")
         if self.box_mm is not None:
             x0, y0, z0, x1, y1, z1 = self.box_mm
             if not (x1 > x0 and y1 > y0 and z1 > z0):
@@ -556,9 +569,10 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Path]:
         Missing file, malformed YAML (with line), or any schema violation.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"scenario file not found: {path}"
-                         + (" (it is a folder)" if path.is_dir() else ""))
+    if not os.path.lexists(path):
+        raise InputError(f"scenario file not found: {path}")
+    # a dangling link, a link loop, a folder, a FIFO (never opened), a device and a file
+    # over the scenario cap each get their own message from the reader
     raw = parse_yaml(read_user_text(path, "scenario file"), str(path))
     if not isinstance(raw, dict):
         raise InputError(f"{path}: a scenario must be a YAML mapping of sections, got "
@@ -570,11 +584,52 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Path]:
     return scenario, path.resolve().parent
 
 
+#: Most files of a robot directory :func:`scenario_input_files` lists one by one; a larger
+#: directory is listed as itself (every existing file under it is then protected).
+MAX_ROBOT_DIR_FILES = 10_000
+
+
+def scenario_input_files(scenario: Scenario, base_dir: Path) -> list[Path]:
+    """Every file the scenario reads (not the scenario file itself), for the output checks.
+
+    The tool and material files, ``path.file`` (waypoint CSV or G-code program),
+    ``stock.mesh``, every file under the robot directory (robot.yaml, URDF, meshes) and a
+    URDF that robot.yaml names outside it. Paths are absolute, missing files included (the
+    stage that reads them reports those); symbolic links are kept, so that a check can both
+    resolve them and compare the files. A robot directory of more than
+    :data:`MAX_ROBOT_DIR_FILES` files is listed as the directory itself.
+    """
+    def at(relative: str) -> Path:
+        p = Path(relative)
+        return Path(os.path.abspath(p if p.is_absolute() else base_dir / p))
+
+    files = [at(scenario.tool), at(scenario.material)]
+    if scenario.path.generator in ("csv", "gcode") and scenario.path.file:
+        files.append(at(scenario.path.file))
+    if scenario.stock is not None and scenario.stock.mesh is not None:
+        files.append(at(scenario.stock.mesh))
+    robot_dir = at(scenario.robot.directory)
+    robot_files: list[Path] = []
+    for folder, _dirs, names in os.walk(robot_dir):  # errors (missing, unreadable): skipped
+        robot_files += [Path(folder) / n for n in names]
+        if len(robot_files) > MAX_ROBOT_DIR_FILES:
+            robot_files = [robot_dir]
+            break
+    files += robot_files
+    try:
+        doc = read_yaml(robot_dir / "robot.yaml", "robot file")
+    except InputError:  # loading the robot says what is wrong with it
+        doc = None
+    if isinstance(doc, dict) and isinstance(doc.get("urdf"), str):
+        files.append(Path(os.path.abspath(robot_dir / doc["urdf"])))
+    return list(dict.fromkeys(files))
+
+
 def resolve(base: Path, relative: str, what: str) -> Path:
     """Resolve a file named in a scenario against its directory; InputError if missing."""
     p = Path(relative)
     p = p if p.is_absolute() else base / p
-    if not p.exists():
+    if not os.path.lexists(p):  # a dangling link or a loop: its reader says what it is
         raise InputError(f"{what} not found: {relative} (looked for {p})")
     return p
 

@@ -15,12 +15,14 @@ into gigabytes).
 
 from __future__ import annotations
 
+import math
 import re
 import reprlib
 from pathlib import Path
 from typing import Any
 
 import yaml
+from yaml.constructor import ConstructorError
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from feedopt.errors import InputError
@@ -57,32 +59,84 @@ StrictLoader.yaml_implicit_resolvers = {
     first: [(tag, rx) for tag, rx in resolvers if tag not in _DROPPED_TAGS]
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
-StrictLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:bool", re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
-    list("tTfF"))
-StrictLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:int", re.compile(r"^[-+]?[0-9]+$"), list("-+0123456789"))
-StrictLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
-               r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
-    list("-+.0123456789"))
+_BOOL = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
+_INT = re.compile(r"^[-+]?[0-9]+$")
+_FLOAT = re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+                    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$")
+#: Most digits of an integer (Python refuses to convert more than 4300).
+MAX_INT_DIGITS = 1000
+StrictLoader.add_implicit_resolver("tag:yaml.org,2002:bool", _BOOL, list("tTfF"))
+StrictLoader.add_implicit_resolver("tag:yaml.org,2002:int", _INT, list("-+0123456789"))
+StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+.0123456789"))
+
+
+def _refuse(loader: StrictLoader, node: Node, what: str) -> ConstructorError:
+    return ConstructorError(None, None, what, node.start_mark)
+
+
+def _construct_bool(loader: StrictLoader, node: Node) -> bool:
+    value = loader.construct_scalar(node)
+    if not _BOOL.match(value):
+        raise _refuse(loader, node, f"{excerpt(value)} is not true or false")
+    return value.lower() == "true"
+
+
+def _construct_int(loader: StrictLoader, node: Node) -> int:
+    value = loader.construct_scalar(node)
+    if not _INT.match(value):
+        raise _refuse(loader, node, f"{excerpt(value)} is not a decimal integer")
+    if len(value) > MAX_INT_DIGITS:
+        raise _refuse(loader, node, f"an integer of {len(value)} digits")
+    return int(value)
+
+
+def _construct_float(loader: StrictLoader, node: Node) -> float:
+    value = loader.construct_scalar(node)
+    if not (_FLOAT.match(value) or _INT.match(value)):
+        raise _refuse(loader, node, f"{excerpt(value)} is not a decimal number")
+    if len(value) > MAX_INT_DIGITS:
+        raise _refuse(loader, node, f"a number of {len(value)} characters")
+    low = value.lower()
+    if low.endswith(".inf"):
+        return -math.inf if low.startswith("-") else math.inf
+    return math.nan if low.endswith(".nan") else float(value)
+
+
+def _construct_refused(loader: StrictLoader, node: Node) -> None:
+    raise _refuse(loader, node, f"the tag {node.tag} has no use in a feedopt file: write the "
+                  "value without it")
+
+
+StrictLoader.add_constructor("tag:yaml.org,2002:bool", _construct_bool)
+StrictLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
+StrictLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
+for _tag in ("binary", "timestamp", "set", "omap", "pairs", "value", "yaml"):
+    StrictLoader.add_constructor(f"tag:yaml.org,2002:{_tag}", _construct_refused)
 
 
 def _expanded_size(root: Node, budget: int) -> int:
-    """Number of nodes ``root`` expands to with every alias copied (memoised, so cheap)."""
+    """Number of nodes ``root`` expands to with every alias copied (memoised, so cheap).
+
+    InputError for an alias inside its own anchor (a structure that contains itself: no job
+    file means that, and readers walking it would never end)."""
     sizes: dict[int, int] = {}
+    open_nodes: set[int] = set()
 
     def size(node: Node) -> int:
         key = id(node)
+        if key in open_nodes:
+            mark = node.start_mark
+            raise InputError(f"line {mark.line + 1}: an alias refers to the anchor it is inside "
+                             "(a structure that contains itself): write the values out")
         if key in sizes:
             return sizes[key]
-        sizes[key] = 1  # a recursive alias counts once (and cannot loop)
+        open_nodes.add(key)
         total = 1
         if isinstance(node, SequenceNode):
             total += sum(size(child) for child in node.value)
         elif isinstance(node, MappingNode):
             total += sum(size(k) + size(v) for k, v in node.value)
+        open_nodes.discard(key)
         sizes[key] = min(total, budget + 1)
         return sizes[key]
 
@@ -116,6 +170,9 @@ def parse_yaml(text: str, source: str) -> Any:
         raise InputError(msg if msg.startswith(source) else f"{source}: {msg}") from None
     except RecursionError:
         raise InputError(f"{source}: the YAML is nested too deeply to be a job file") from None
+    except (ValueError, TypeError, OverflowError) as exc:  # e.g. !!float abc, a 5000-digit int
+        raise InputError(f"{source}: not valid YAML: a value cannot be read "
+                         f"({str(exc)[:120]})") from None
     finally:
         loader.dispose()
 

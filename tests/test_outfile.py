@@ -73,6 +73,37 @@ def test_check_refuses_an_input_given_by_another_name(tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only folders")
+def test_an_input_is_named_before_the_suffix_is_checked(tmp_path, monkeypatch):
+    """--plot tool.yaml: the message that matters is that it is an input, not its suffix."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "tool.yaml").write_text("keep")
+    with pytest.raises(InputError, match="--plot tool.yaml is the input file tool.yaml"):
+        check_output_file("tool.yaml", "--plot", plot_suffixes(), inputs=["tool.yaml"])
+    assert (tmp_path / "tool.yaml").read_text() == "keep"
+
+
+def test_an_input_folder_protects_its_files_not_new_names(tmp_path, monkeypatch):
+    """A folder among the inputs (a robot directory): its existing files, deep or linked,
+    are refused; a new file in it is fine."""
+    monkeypatch.chdir(tmp_path)
+    robot = tmp_path / "robot"
+    (robot / "meshes").mkdir(parents=True)
+    (robot / "robot.yaml").write_text("keep")
+    (robot / "meshes" / "base.stl").write_text("keep")
+    (tmp_path / "sym.csv").symlink_to(robot / "meshes" / "base.stl")
+    os.link(robot / "robot.yaml", tmp_path / "hard.csv")
+    for name in ("robot/robot.yaml", "robot/meshes/base.stl", "sym.csv", "hard.csv"):
+        with pytest.raises(InputError, match=f"--out {name} is a file of the input folder "
+                                             "robot: writing it would destroy your input"):
+            check_output_file(name, "--out", inputs=["robot"])
+    assert check_output_file("robot/new.yaml", "--out", inputs=["robot"]) == robot / "new.yaml"
+    (tmp_path / "other.csv").write_text("x")
+    os.link(tmp_path / "other.csv", tmp_path / "other2.csv")  # a hard link, not to the robot
+    assert check_output_file("other.csv", "--out", inputs=["robot"]) == tmp_path / "other.csv"
+    assert (robot / "robot.yaml").read_text() == (robot / "meshes" / "base.stl").read_text()
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write in a read-only folder")
 def test_check_refuses_a_read_only_folder_and_file(tmp_path):
     ro = tmp_path / "ro"
     ro.mkdir()

@@ -61,16 +61,17 @@ def engagement_table(front) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     from feedopt.runner import prepare_front
-    from feedopt.scenario import load_scenario
+    from feedopt.scenario import load_scenario, scenario_input_files
 
-    check_data_and_plot(args.out, args.plot, [args.scenario], "engagement.csv",
-                        "engagement.png")
-    if args.intervals is not None:
-        check_output_file(args.intervals, "--intervals", example="intervals.csv",
-                          inputs=[args.scenario, *(f for f in (args.out, args.plot) if f)])
     if args.spacing is not None and not (np.isfinite(args.spacing) and args.spacing > 0):
         raise InputError(f"--spacing must be a positive number of mm, got {args.spacing}")
     scenario, base_dir = load_scenario(args.scenario)
+    # every output is checked before any work: none may be the scenario or a file it reads
+    inputs = [args.scenario, *scenario_input_files(scenario, base_dir)]
+    check_data_and_plot(args.out, args.plot, inputs, "engagement.csv", "engagement.png")
+    if args.intervals is not None:
+        check_output_file(args.intervals, "--intervals", example="intervals.csv",
+                          inputs=[*inputs, *(f for f in (args.out, args.plot) if f)])
     if scenario.stock is None:
         raise InputError(f"{args.scenario}: no stock: section; give stock: {{box_mm: [x0, y0, "
                          "z0, x1, y1, z1]}} (or mesh: part.stl) for the engagement from the "

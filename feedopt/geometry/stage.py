@@ -9,6 +9,7 @@ scenario module.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path as FilePath
 from typing import Any
@@ -33,7 +34,7 @@ def resolve_file(base: FilePath, relative: str, what: str) -> FilePath:
     does not exist (the message of ``feedopt.scenario.resolve``)."""
     p = FilePath(relative)
     p = p if p.is_absolute() else base / p
-    if not p.exists():
+    if not os.path.lexists(p):  # a dangling link or a loop: its reader says what it is
         raise InputError(f"{what} not found: {relative} (looked for {p})")
     return p
 

@@ -8,6 +8,8 @@ read") is validated by :func:`validate_summary` before a table is printed from i
 from __future__ import annotations
 
 import json
+import math
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,13 +19,16 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
+from feedopt.yamlio import excerpt
 
-# Per-law keys of summary.json and their kinds ("num": number or null, "bool": bool or null).
+# Per-law keys of summary.json and their kinds: "pos" a number > 0 or null, "num" a number
+# >= 0 or null, "bool" true, false or null. A run writes nothing negative, NaN or infinite
+# there (report/summary.py writes null instead), so a summary holding such a value was edited.
 LAW_KEYS: dict[str, str] = {
-    "cycle_time_s": "num",
-    "lower_bound_s": "num",
+    "cycle_time_s": "pos",
+    "lower_bound_s": "pos",
     "max_deflection_mm": "num",
-    "max_feed_mm_s": "num",
+    "max_feed_mm_s": "pos",
     "min_feed_mm_s": "num",
     "max_accel_mm_s2": "num",
     "max_jerk_mm_s3": "num",
@@ -31,9 +36,17 @@ LAW_KEYS: dict[str, str] = {
     "verified": "bool",
     "planning_time_s": "num",
 }
-OPTIONAL_LAW_KEYS: dict[str, str] = {"deflection_ratio": "num"}
+OPTIONAL_LAW_KEYS: dict[str, str] = {"deflection_ratio": "num", "exported": "bool"}
 # Optional per-law objects (start/stop ramps, schedule/checks.py) and their numeric keys.
 RAMP_KEYS = ("length_mm", "duration_s", "feed_mm_s", "s_from_mm", "s_to_mm")
+#: Why a ramp ends (schedule/checks.py Ramp.reason).
+RAMP_REASONS = ("flat", "bound", "path")
+#: Largest magnitude of any number in summary.json: far above what a run writes (times of
+#: days, km of path, feeds, accelerations and jerks of any robot), far below 1e308.
+MAX_SUMMARY_NUMBER = 1e15
+#: Largest summary.json read (a run writes tens of KiB).
+MAX_SUMMARY_BYTES = 16 * 2**20
+_LAW_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9._-]{0,63}$")
 
 
 def _ro(a, shape_tail: tuple[int, ...] = (), name: str = "") -> np.ndarray:
@@ -257,17 +270,59 @@ class ReportData:
 
 
 def _check_value(kind: str, value, where: str) -> None:
+    """InputError unless ``value`` is null or of ``kind`` (see :data:`LAW_KEYS`)."""
     if value is None:
         return
     if kind == "bool":
         if not isinstance(value, bool):
-            raise InputError(f"{where} must be true, false or null, got {value!r}")
-    elif isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{where} must be a number or null, got {value!r}")
+            raise InputError(f"{where} must be true, false or null, got {excerpt(value)}")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{where} must be a number or null, got {excerpt(value)}")
+    if abs(value) > MAX_SUMMARY_NUMBER or not math.isfinite(value):  # ints beyond float too
+        raise InputError(f"{where} = {excerpt(value)}: a run writes a finite number of at most "
+                         f"{MAX_SUMMARY_NUMBER:.0e} here (or null); the file was edited or "
+                         "damaged")
+    if value < 0 or (kind == "pos" and value == 0):
+        bound = "> 0" if kind == "pos" else ">= 0"
+        raise InputError(f"{where} = {value!r}: a run writes a number {bound} here (or null); "
+                         "the file was edited or damaged")
+
+
+def _check_law(law: str, row, source: str) -> None:
+    """One entry of ``laws``: the keys compare prints, each of its kind."""
+    if not _LAW_NAME.match(law):
+        raise InputError(f"{source}: laws: {excerpt(law)} is not a timing law name (letters, "
+                         "digits, '_', '.', '-'; at most 64)")
+    if not isinstance(row, dict):
+        raise InputError(f"{source}: laws.{law} must be an object, got {excerpt(row)}")
+    missing = [k for k in LAW_KEYS if k not in row]
+    if missing:
+        raise InputError(f"{source}: laws.{law} lacks {', '.join(missing)}")
+    for key, kind in {**LAW_KEYS, **OPTIONAL_LAW_KEYS}.items():
+        _check_value(kind, row.get(key), f"{source}: laws.{law}.{key}")
+    for ramp in ("start_ramp", "stop_ramp"):
+        value = row.get(ramp)
+        if value is None:
+            continue
+        if not isinstance(value, dict):
+            raise InputError(f"{source}: laws.{law}.{ramp} must be an object or null, "
+                             f"got {excerpt(value)}")
+        for key in RAMP_KEYS:
+            _check_value("num", value.get(key), f"{source}: laws.{law}.{ramp}.{key}")
+        if value.get("ends_by") not in (None, *RAMP_REASONS):
+            raise InputError(f"{source}: laws.{law}.{ramp}.ends_by must be one of "
+                             f"{', '.join(RAMP_REASONS)} or null, got "
+                             f"{excerpt(value.get('ends_by'))}")
 
 
 def validate_summary(obj, source: str = "summary.json") -> dict:
-    """Check the structure of a summary.json object; return it. Raises :class:`InputError`."""
+    """Check the structure of a summary.json object; return it. Raises :class:`InputError`.
+
+    Strict about what ``feedopt compare`` and the report print: every per-law number is
+    finite, not negative and not absurdly large (:data:`MAX_SUMMARY_NUMBER`), each flag a
+    boolean, ``scenario.name`` a string and ``scenario.deflection_limit_mm`` a number > 0.
+    """
     if not isinstance(obj, dict):
         raise InputError(f"{source}: top level must be an object with 'laws', got "
                          f"{type(obj).__name__}")
@@ -275,42 +330,53 @@ def validate_summary(obj, source: str = "summary.json") -> dict:
     if not isinstance(laws, dict) or not laws:
         raise InputError(f"{source}: missing or empty 'laws' object (one entry per timing law)")
     for law, row in laws.items():
-        if not isinstance(row, dict):
-            raise InputError(f"{source}: laws.{law} must be an object, got {row!r}")
-        missing = [k for k in LAW_KEYS if k not in row]
-        if missing:
-            raise InputError(f"{source}: laws.{law} lacks {', '.join(missing)}")
-        for key, kind in {**LAW_KEYS, **OPTIONAL_LAW_KEYS}.items():
-            _check_value(kind, row.get(key), f"{source}: laws.{law}.{key}")
-        for ramp in ("start_ramp", "stop_ramp"):
-            value = row.get(ramp)
-            if value is None:
-                continue
-            if not isinstance(value, dict):
-                raise InputError(f"{source}: laws.{law}.{ramp} must be an object or null, "
-                                 f"got {value!r}")
-            for key in RAMP_KEYS:
-                _check_value("num", value.get(key), f"{source}: laws.{law}.{ramp}.{key}")
+        _check_law(law, row, source)
     warnings = obj.get("warnings", [])
     if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
-        raise InputError(f"{source}: 'warnings' must be a list of strings, got {warnings!r}")
+        raise InputError(f"{source}: 'warnings' must be a list of strings, got "
+                         f"{excerpt(warnings)}")
     scen = obj.get("scenario", {})
     if not isinstance(scen, dict):
-        raise InputError(f"{source}: 'scenario' must be an object, got {scen!r}")
+        raise InputError(f"{source}: 'scenario' must be an object, got {excerpt(scen)}")
+    if not isinstance(scen.get("name", ""), str):
+        raise InputError(f"{source}: scenario.name must be a string, got "
+                         f"{excerpt(scen.get('name'))}")
+    _check_value("pos", scen.get("deflection_limit_mm"), f"{source}: scenario.deflection_limit_mm")
     return obj
 
 
+def _no_duplicate_keys(pairs: list[tuple[str, object]]) -> dict:
+    """``object_pairs_hook`` of :func:`json.loads`: an object, refusing a key given twice."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"the key {key!r} is given twice in one object (JSON readers "
+                             "would silently keep one of them)")
+        out[key] = value
+    return out
+
+
 def load_summary(path: str | Path) -> dict:
-    """Read and validate ``summary.json``; ``path`` may be the file or its run directory."""
+    """Read and validate ``summary.json``; ``path`` may be the file or its run directory.
+
+    The file is refused before parsing when larger than :data:`MAX_SUMMARY_BYTES` (or not a
+    regular file); JSON that is malformed, nested too deeply or holds a key twice is refused
+    naming the file, and the values :func:`validate_summary` checks name their field.
+    """
     path = Path(path)
     if path.is_dir():
         path = path / "summary.json"
-    text = read_user_text(path, "run summary",
+    text = read_user_text(path, "run summary", max_bytes=MAX_SUMMARY_BYTES,
                           missing_hint=" (give a directory written by `feedopt run`)")
-    try:
-        obj = json.loads(text)
+    try:  # NaN and Infinity are read: the fields compare uses refuse them by name
+        obj = json.loads(text, object_pairs_hook=_no_duplicate_keys)
     except json.JSONDecodeError as exc:
         raise InputError(
             f"{path}: invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
         ) from None
+    except RecursionError:
+        raise InputError(f"{path}: the JSON is nested too deeply to be a run summary (a run "
+                         "writes a few levels)") from None
+    except ValueError as exc:  # a key given twice, an integer of thousands of digits
+        raise InputError(f"{path}: invalid JSON: {exc}") from None
     return validate_summary(obj, str(path))

@@ -12,6 +12,7 @@ result.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -172,6 +173,54 @@ CASES = [
          "one tool"),
     case("run-nc-nominal-feed", ["run", "scenario/program_nominal.yaml"],
          "the program's F words are the nominal feed"),
+    # no command writes over its inputs (issue 26): local.yaml reads scenario/tools/tool.yaml,
+    # scenario/materials/material.yaml and the robot directory robot/
+    case("run-out-holds-the-tool", ["run", "scenario/local.yaml", "--out", "scenario/tools",
+                                    "--overwrite"],
+         "--out scenario/tools holds the input file {work}/scenario/tools/tool.yaml of this run: "
+         "feedopt never writes over or replaces its inputs (not even with --overwrite)"),
+    case("run-out-is-the-robot-dir", ["run", "scenario/local.yaml", "--out", "robot",
+                                      "--overwrite"],
+         "--out robot holds the input file {work}/robot/"),
+    case("run-out-is-the-material", ["run", "scenario/local.yaml", "--out",
+                                     "scenario/materials/material.yaml"],
+         "--out scenario/materials/material.yaml is the input file"),
+    case("engagement-out-is-the-tool", ["engagement", "scenario/local.yaml", "--out",
+                                        "scenario/tools/tool.yaml"],
+         "--out scenario/tools/tool.yaml is the input file {work}/scenario/tools/tool.yaml"),
+    case("engagement-intervals-is-the-urdf", ["engagement", "scenario/local.yaml",
+                                              "--intervals", "robot/kr500_3.urdf"],
+         "--intervals robot/kr500_3.urdf is the input file {work}/robot/kr500_3.urdf"),
+    case("engagement-plot-is-the-robot-yaml", ["engagement", "scenario/local.yaml", "--plot",
+                                               "robot/robot.yaml"],
+         "--plot robot/robot.yaml is the input file {work}/robot/robot.yaml"),
+    case("calibrate-stiffness-out-is-the-urdf",
+         ["calibrate-stiffness", "--suggest", "3", "--robot", "robot", "--out",
+          "robot/kr500_3.urdf"],
+         "--out robot/kr500_3.urdf is a file of the input folder robot"),
+    # every text input is capped before it is parsed (issue 26): sparse files, no disk used
+    case("validate-500mb-scenario", ["validate", "huge.yaml"],
+         "scenario file huge.yaml is 476.8 MiB (500,000,000 bytes), more than the 4.0 MiB"),
+    case("validate-huge-tool", ["validate", "scenario/huge_tool.yaml"],
+         "tool {work}/scenario/tools/huge.yaml is 100.0 MiB (104,857,600 bytes), more than the "
+         "1.0 MiB (1,048,576 bytes) a tool may have"),
+    case("compare-huge-summary", ["compare", "huge_run"],
+         "run summary huge_run/summary.json is 1.0 GiB"),
+    case("compare-deep-summary", ["compare", "deep_run"], "deep_run/summary.json: the JSON is "
+         "nested too deeply"),
+    case("compare-nan-cycle-time", ["compare", "nan_run"],
+         "nan_run/summary.json: laws.thesis.cycle_time_s = nan: a run writes a finite number"),
+    # what a scenario file is when it is not a file (issue 26)
+    case("validate-dev-zero", ["validate", "/dev/zero"],
+         "scenario file /dev/zero is not a regular file but a character device"),
+    case("validate-fifo", ["validate", "fifo.yaml"],
+         "scenario file fifo.yaml is not a regular file but a named pipe (FIFO)"),
+    case("run-fifo", ["run", "fifo.yaml"],
+         "scenario file fifo.yaml is not a regular file but a named pipe (FIFO)"),
+    case("run-out-marker-is-a-fifo", RUN + ["--out", "fifo_out"],
+         "--out fifo_out already holds files feedopt did not write (.feedopt-output.json)"),
+    case("validate-fifo-tool", ["validate", "scenario/fifo_tool.yaml"],
+         "tool {work}/scenario/tools/fifo.yaml is not a regular file but a named pipe"),
 ]
 
 
@@ -218,6 +267,44 @@ def _fixture_files(work: Path) -> None:
     prog["path"]["file"] = str(SCEN / "gcode" / "profile.nc")
     prog["feed"]["nominal_mm_s"] = 4.0
     (work / "scenario" / "program_nominal.yaml").write_text(yaml.safe_dump(prog))
+    _local_inputs(work, doc)
+
+
+def _local_inputs(work: Path, doc: dict) -> None:
+    """A scenario whose tool, material and robot are files of the case's folder (issue 26),
+    the same with a FIFO and with a 100 MiB tool file, and hostile inputs of their own kinds:
+    a 500 MB scenario, a FIFO, run summaries that are huge, deep or hold NaN."""
+    shutil.copytree(ROBOT, work / "robot")
+    (work / "scenario" / "tools").mkdir()
+    shutil.copy(TOOL, work / "scenario" / "tools" / "tool.yaml")
+    (work / "scenario" / "materials").mkdir()
+    shutil.copy(COEFFS, work / "scenario" / "materials" / "material.yaml")
+    local = {**doc, "robot": {**doc["robot"], "directory": "../robot"},
+             "tool": "tools/tool.yaml", "material": "materials/material.yaml"}
+    (work / "scenario" / "local.yaml").write_text(yaml.safe_dump(local))
+    for name, tool in (("huge_tool", "tools/huge.yaml"), ("fifo_tool", "tools/fifo.yaml")):
+        (work / "scenario" / f"{name}.yaml").write_text(yaml.safe_dump({**local, "tool": tool}))
+    os.mkfifo(work / "scenario" / "tools" / "fifo.yaml")
+    os.mkfifo(work / "fifo.yaml")
+    (work / "fifo_out").mkdir()  # a marker that would block a reader that opened it
+    os.mkfifo(work / "fifo_out" / ".feedopt-output.json")
+    for path, size, head in ((work / "scenario" / "tools" / "huge.yaml", 100 * 2**20, b"# x\n"),
+                             (work / "huge.yaml", 500 * 10**6, b"# all comment\n"),
+                             (work / "huge_run" / "summary.json", 2**30, b'{"laws": ')):
+        path.parent.mkdir(exist_ok=True)
+        with open(path, "wb") as fh:  # sparse: the size without the disk space
+            fh.write(head)
+            fh.truncate(size)
+    (work / "deep_run").mkdir()
+    (work / "deep_run" / "summary.json").write_text('{"laws": ' + "[" * 50_000
+                                                    + "]" * 50_000 + "}")
+    (work / "nan_run").mkdir()
+    (work / "nan_run" / "summary.json").write_text(json.dumps(
+        {"laws": {"thesis": {"cycle_time_s": float("nan"), "lower_bound_s": 1.0,
+                             "max_deflection_mm": 0.1, "max_feed_mm_s": 4.0,
+                             "min_feed_mm_s": 1.0, "max_accel_mm_s2": 1.0,
+                             "max_jerk_mm_s3": 1.0, "c2": True, "verified": True,
+                             "planning_time_s": 0.1}}}))
 
 
 def _listing(folder: Path) -> list[str]:

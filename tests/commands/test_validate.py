@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import time
 from pathlib import Path
 
 import pytest
+import yaml
 
 from feedopt.cli import main
 from feedopt.scenario import schema_reference
@@ -76,3 +79,68 @@ def test_help_documents_schema_and_out(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "takes no SCENARIO" in text and "--out FILE" in text
     assert "write the reference to FILE (.md or .txt)" in text
+
+
+# --------------------------------------------------- scenario files that are not files (issue 26)
+
+def _scenario_copy(tmp_path: Path, **fields) -> Path:
+    """triangle_slot.yaml in ``tmp_path`` with absolute tool/material/robot and ``fields``."""
+    doc = yaml.safe_load(SCENARIO.read_text())
+    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+    doc["tool"] = str(ROOT / "scenarios" / doc["tool"])
+    doc["material"] = str(ROOT / "scenarios" / doc["material"])
+    doc.update(fields)
+    path = tmp_path / "job.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda p: p.symlink_to(p), "scenario file {p} is a symbolic link loop"),
+    (lambda p: p.symlink_to(p.parent / "gone.yaml"),
+     "scenario file {p} is a symbolic link to {p.parent}/gone.yaml, which does not exist"),
+    (lambda p: p.mkdir(), "scenario file {p} is a folder, not a file"),
+    (lambda p: p.symlink_to("/dev/zero"), "scenario file {p} is not a regular file but a "
+     "character device"),
+    (lambda p: os.mkfifo(p), "scenario file {p} is not a regular file but a named pipe (FIFO)"),
+    (lambda p: None, "scenario file not found: {p}"),
+])
+def test_each_kind_of_non_file_scenario_has_its_message(tmp_path, capsys, make, message):
+    p = tmp_path / "s.yaml"
+    make(p)
+    t0 = time.perf_counter()
+    assert main(["validate", str(p)]) == 2  # a FIFO is never opened: this cannot block
+    assert time.perf_counter() - t0 < 5.0
+    err = capsys.readouterr().err
+    assert message.format(p=p) in err, err
+    assert "not found" not in err or "not found" in message
+
+
+@pytest.mark.parametrize("field", ["tool", "material"])
+def test_a_referenced_file_that_is_a_link_loop_or_fifo_is_named_as_such(tmp_path, capsys, field):
+    loop = tmp_path / "loop.yaml"
+    loop.symlink_to(loop)
+    assert main(["validate", str(_scenario_copy(tmp_path, **{field: str(loop)}))]) == 2
+    assert f"{loop} is a symbolic link loop" in capsys.readouterr().err
+    fifo = tmp_path / "fifo.yaml"
+    os.mkfifo(fifo)
+    assert main(["validate", str(_scenario_copy(tmp_path, **{field: str(fifo)}))]) == 2
+    assert f"{fifo} is not a regular file but a named pipe" in capsys.readouterr().err
+
+
+def test_an_all_comment_scenario_over_the_cap_is_refused_at_once(tmp_path, capsys):
+    """Issue 26: 500 MB of comments kept validate busy for minutes; now refused by size."""
+    p = tmp_path / "comments.yaml"
+    with open(p, "wb") as fh:
+        for _ in range(5):  # 5 MiB of real comment lines
+            fh.write((b"# " + b"c" * 1021 + b"\n") * 1024)
+    t0 = time.perf_counter()
+    assert main(["validate", str(p)]) == 2
+    assert time.perf_counter() - t0 < 2.0
+    assert (f"scenario file {p} is 5.0 MiB (5,242,880 bytes), more than the 4.0 MiB "
+            "(4,194,304 bytes) a scenario file may have") in capsys.readouterr().err
+    with open(p, "r+b") as fh:  # the same just under the cap parses (and is empty)
+        fh.truncate(4 * 2**20)
+    assert main(["validate", str(p)]) == 2
+    assert "a scenario must be a YAML mapping of sections, got NoneType" in \
+        capsys.readouterr().err
