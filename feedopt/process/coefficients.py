@@ -39,7 +39,7 @@ import numpy as np
 import yaml
 
 from feedopt.errors import InputError
-from feedopt.process._io import number, read_yaml_mapping
+from feedopt.process._io import check_keys, number, read_yaml_mapping, text
 from feedopt.units import MM
 
 #: Optional file-level YAML key of the calibrated feed-per-tooth range ``[min, max]`` [mm].
@@ -47,6 +47,9 @@ RANGE_KEY = "feed_per_tooth_range_mm"
 
 #: Relative slack of the range check (the file stores 6 significant digits).
 RANGE_SLACK = 1e-5
+
+#: Top-level keys of a coefficients file (unknown keys are refused).
+FILE_TOP_KEYS = ("material", "tool", "source", RANGE_KEY, "speeds")
 
 #: YAML key of each CuttingCoefficients field, in field order.
 FILE_KEYS = {
@@ -242,13 +245,15 @@ def _range_of(data: dict, where: str) -> tuple[float, float] | None:
 
 
 def load_coefficients(path: str | Path) -> CoefficientTable:
-    """Read a coefficients YAML file (format in the module docstring) into SI units.
+    """Read a coefficients YAML file (format in the module docstring) into SI units; strict:
+    unknown keys, at the top or in a speed entry, are refused (InputError naming the key).
 
     Refuses coefficients with unphysical signs (:func:`sign_problems`): InputError naming the
     file, the speed entry and the field.
     """
     data = read_yaml_mapping(path, "coefficients")
     where = f"coefficients file {str(path)!r}"
+    check_keys(data, FILE_TOP_KEYS, where)
     speeds = data.get("speeds")
     if not isinstance(speeds, list) or not speeds:
         raise InputError(f"{where}: missing field 'speeds' (a list with one entry per rpm)")
@@ -257,6 +262,7 @@ def load_coefficients(path: str | Path) -> CoefficientTable:
         at = f"{where}: speeds[{i}]"
         if not isinstance(entry, dict):
             raise InputError(f"{at}: expected a mapping with rpm and six coefficients")
+        check_keys(entry, ("rpm", *FILE_KEYS.values()), at)
         rpm = number(entry, "rpm", at)
         if rpm <= 0:
             raise InputError(f"{at}.rpm: must be > 0, got {rpm!r}")
@@ -275,9 +281,9 @@ def load_coefficients(path: str | Path) -> CoefficientTable:
         table[rpm] = coeffs
     return CoefficientTable.from_speeds(
         table,
-        material=str(data.get("material", "")),
-        tool=str(data.get("tool", "")),
-        source=str(data.get("source", "")),
+        material=text(data, "material", where),
+        tool=text(data, "tool", where),
+        source=text(data, "source", where),
         feed_per_tooth_range=_range_of(data, where),
     )
 

@@ -6,6 +6,11 @@ the sampled path in order and hands the force model the engagement the material 
 (entry/exit angles and axial depth per sample; air samples carry no force). On a G-code
 program it also refuses what the force model cannot describe and a CNC would crash on: a rapid
 that meets material, and a plunge straight down into it (a drilling move), naming the line.
+
+A path that cuts no material at any sample is refused (the stock is elsewhere, or the mesh is
+in other units: the message gives both extents in mm) unless ``stock.air_cut`` says an air cut
+is meant; then it is a warning. A run that plans only air is a run of nothing the user asked
+for, and exit 0 with a warning among others is easily missed, hence the error by default.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ class MaterialAlongPath:
     before: ZMap
     after: ZMap
     found: StockEngagement
+    warnings: tuple[str, ...] = ()
 
     @property
     def removed_volume(self) -> float:
@@ -38,12 +44,90 @@ class MaterialAlongPath:
 
 
 def build_stock(section, resolve: Callable[[str, str], Path]) -> ZMap:
-    """The Z-map of a scenario's ``stock`` section (mm -> m)."""
+    """The Z-map of a scenario's ``stock`` section (mm -> m; a mesh in ``stock.units``),
+    bounded in size (:func:`~feedopt.process.stock.grid_shape`) before anything is allocated."""
     cell = section.cell_mm * MM
     if section.box_mm is not None:
         x0, y0, z0, x1, y1, z1 = (v * MM for v in section.box_mm)
-        return ZMap.box(x0, x1, y0, y1, z0, z1, cell=cell)
-    return ZMap.from_mesh(resolve(section.mesh, "stock.mesh (STL)"), cell)
+        return ZMap.box(x0, x1, y0, y1, z0, z1, cell=cell,
+                        where=f"stock.box_mm {list(section.box_mm)} (mm)")
+    units = section.units or "mm"
+    file = resolve(section.mesh, "stock.mesh (STL)")
+    return ZMap.from_mesh(file, cell, scale=MM if units == "mm" else 1.0,
+                          where=f"stock.mesh {file} (coordinates read in {units}: "
+                                f"stock.units)")
+
+
+def _span(lo: np.ndarray, hi: np.ndarray) -> str:
+    return ", ".join(f"{a} {lo[k] / MM:.6g}..{hi[k] / MM:.6g}" for k, a in enumerate("xyz"))
+
+
+def apart_text(stock: ZMap, positions: np.ndarray, radius: float) -> str | None:
+    """Why the tool along ``positions`` (tool tips in W [m]) cannot meet ``stock`` at all
+    (their boxes do not overlap), with both extents in mm; None when the boxes overlap."""
+    nx, ny = stock.shape
+    s_lo = np.array([*stock.origin, stock.bottom])
+    s_hi = np.array([stock.origin[0] + nx * stock.cell, stock.origin[1] + ny * stock.cell,
+                     float(stock.heights.max())])
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    widen = np.array([radius, radius, 0.0])
+    p_lo, p_hi = p.min(axis=0) - widen, p.max(axis=0) + widen
+    if np.all(p_lo[:2] < s_hi[:2]) and np.all(p_hi[:2] > s_lo[:2]) and p_lo[2] < s_hi[2]:
+        return None
+    why = ("the tool tip stays at or above the stock's top" if np.all(p_lo[:2] < s_hi[:2])
+           and np.all(p_hi[:2] > s_lo[:2]) else "they do not overlap in x and y")
+    return (f"{why}: the path (tool tip, x and y widened by the tool radius "
+            f"{radius / MM:g} mm) spans {_span(p_lo, p_hi)} mm, the stock {_span(s_lo, s_hi)} "
+            "mm (both in the workpiece frame W)")
+
+
+def check_stock(section, resolve: Callable[[str, str], Path], tool: Tool,
+                positions: np.ndarray) -> ZMap:
+    """What ``feedopt validate`` checks of a ``stock`` section without sweeping: the stock
+    builds (bounded, the mesh read and checked) and, unless stock.air_cut, the path's tool
+    tips ``positions`` (W [m]) come near it (InputError as a run gives)."""
+    stock = build_stock(section, resolve)
+    apart = apart_text(stock, positions, 0.5 * tool.diameter)
+    if apart is not None and not section.air_cut:
+        raise InputError(f"stock: the path cannot cut the stock: {apart}. Place the stock "
+                         "where the path cuts, or set stock.air_cut: true if an air cut is meant")
+    return stock
+
+
+def _units_note(section, stock: ZMap) -> tuple[str, ...]:
+    """A warning when a mesh read in mm is less than 2 mm across in every direction (a mesh
+    in metres read as mm: a 2 m stock would look 2 mm large)."""
+    if section.mesh is None or (section.units or "mm") != "mm":
+        return ()
+    nx, ny = stock.shape
+    size = (nx * stock.cell, ny * stock.cell, float(stock.heights.max()) - stock.bottom)
+    if max(size) >= 2 * MM:
+        return ()
+    return (f"stock.mesh is read in mm and is only {' x '.join(f'{v / MM:.3g}' for v in size)} "
+            "mm: if the STL is in metres, set stock.units: m",)
+
+
+def _nothing_cut(section, before: ZMap, found: StockEngagement, positions: np.ndarray,
+                 radius: float) -> tuple[str, ...]:
+    """Refuse (or, with stock.air_cut, warn about) a path that cuts no material at all; warn
+    when stock.air_cut is set but the path cuts."""
+    cutting = int(np.sum(~found.in_air))
+    air_cut = bool(getattr(section, "air_cut", False))
+    if cutting and air_cut:
+        return (f"stock.air_cut is set but the path cuts material at {cutting} of "
+                f"{found.in_air.size} samples; the plan includes their forces",)
+    if cutting:
+        return ()
+    reason = apart_text(before, positions, radius) or (
+        "the path passes through the stock's box but meets no material in front of the "
+        "cutter (it runs in a cut-out part, or only along the tool axis)")
+    text = f"stock: the path cuts no material at any of its {found.in_air.size} samples: {reason}"
+    if section.mesh is not None:
+        text += f"; the STL was read in {section.units or 'mm'} (stock.units)"
+    if air_cut:
+        return (text + "; planned as an air cut (stock.air_cut: true)",)
+    raise InputError(text + ". Place the stock where the path cuts (path and stock are both in "
+                     "W), or set stock.air_cut: true if an air cut is meant")
 
 
 def _feed_tangents(tangents: np.ndarray) -> np.ndarray:
@@ -78,7 +162,9 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
         _check_program_contacts(found, moves, samples, source, vertical)
     if vertical.any():  # moves along the tool axis do not mill: no force (a plunge into the
         found = _without(found, vertical)  # material was refused above)
-    return MaterialAlongPath(before=before, after=after, found=found)
+    warnings = _units_note(section, before)
+    warnings += _nothing_cut(section, before, found, samples.position, 0.5 * tool.diameter)
+    return MaterialAlongPath(before=before, after=after, found=found, warnings=warnings)
 
 
 def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:

@@ -133,6 +133,8 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     if feed.max_mm_s is not None:
         feeds.append(("feed.max_mm_s", feed.max_mm_s * MM))
     warnings += feed_range_warnings(table, feeds, cut.spindle_rpm, tool)
+    if material is not None:
+        warnings += material.warnings
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))
         warnings.append(f"the stock reaches above the flutes of the tool at "

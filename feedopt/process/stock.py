@@ -41,9 +41,17 @@ use the window of cells, about 0.2 ms each.
 
 Stock from a mesh
 -----------------
-:meth:`ZMap.from_mesh` reads a closed triangle mesh (STL, ...) with trimesh and casts a
-vertical line through every cell centre; it refuses solids a Z-map cannot hold (overhangs,
+:meth:`ZMap.from_mesh` reads a closed triangle mesh (STL, binary or ASCII, in mm by default:
+STL has no units and CAD writes mm; :mod:`feedopt.process.stl` checks its structure) and casts
+a vertical line through every cell centre; it refuses solids a Z-map cannot hold (overhangs,
 material not standing on the bottom).
+
+Size bound
+----------
+Both :meth:`ZMap.box` and :meth:`ZMap.from_mesh` refuse, before allocating anything, a grid of
+more than :data:`MAX_CELLS` cells (40 million: 160 MB of float32 heights; a run keeps the stock
+before and after the path, and reading a mesh needs about 40 bytes a cell for a moment, 1.6 GB
+at the cap). That is 1.58 x 1.58 m at the default 0.25 mm cells, 3.16 x 3.16 m at 0.5 mm.
 """
 
 from __future__ import annotations
@@ -74,6 +82,11 @@ __all__ = [
 
 #: Default Z-map cell size [m].
 DEFAULT_CELL = 0.25 * MM
+#: Largest number of cells of a Z-map (module docstring: 160 MB of heights, 1.6 GB to read a
+#: mesh for a moment).
+MAX_CELLS = 40_000_000
+#: The largest cell size a scenario allows (stock.cell_mm) [m].
+_MAX_CELL = 5.0 * MM
 # Material thinner than this above the tool tip is not material (float32 heights round to
 # ~4e-9 m at |z| = 0.05 m, far below it).
 _MIN_DEPTH = 1e-6
@@ -133,6 +146,135 @@ def _vertical_crossings(
     if not out_c:
         return np.zeros(0, dtype=np.int64), np.zeros(0)
     return np.concatenate(out_c), np.concatenate(out_z)
+
+
+def _unit_text(scale: float) -> str:
+    """The unit a mesh scale [m per unit] reads a file in."""
+    return {MM: "mm", 1.0: "m"}.get(scale, f"units of {scale:g} m")
+
+
+def grid_shape(span_x: float, span_y: float, cell: float, where: str,
+               slack: float = 1e-9) -> tuple[int, int]:
+    """Cells (nx, ny) covering ``span_x`` x ``span_y`` [m] at cell size ``cell`` [m] (a span
+    at most ``slack`` cells above a whole number of cells is that number).
+
+    InputError naming ``where`` when that is more than :data:`MAX_CELLS` cells (or not a
+    finite number of cells), with the cell count and memory it would take and what would fit.
+    Nothing is allocated.
+    """
+    fx, fy = span_x / cell, span_y / cell
+    if math.isfinite(fx) and math.isfinite(fy):
+        nx, ny = max(1, math.ceil(fx - slack)), max(1, math.ceil(fy - slack))
+        if nx * ny <= MAX_CELLS:
+            return nx, ny
+        count = (f"{nx:,} x {ny:,} = {float(nx * ny):.3g} cells ({nx * ny * 4 / 1024**3:.3g} "
+                 "GiB of float32 heights; a run keeps two copies)")
+    else:
+        count = "more cells than a float can count (the span overflows)"
+    need = _cell_that_fits(span_x, span_y, cell) if math.isfinite(fx * fy) else math.inf
+    if need <= _MAX_CELL:
+        fix = (f"use cells of at least {need / MM:g} mm (stock.cell_mm, "
+               "at most 5 mm) or a smaller stock (the part the path cuts)")
+    else:
+        fix = ("even 5 mm cells (the largest stock.cell_mm) are too many: use a smaller stock "
+               "(the part the path cuts)")
+    raise InputError(
+        f"{where}: a Z-map of {span_x / MM:.6g} x {span_y / MM:.6g} mm at {cell / MM:g} mm cells "
+        f"needs {count}; feedopt builds at most "
+        f"{MAX_CELLS:,} cells ({MAX_CELLS * 4 / 1e6:.0f} MB): {fix}")
+
+
+def _cell_that_fits(span_x: float, span_y: float, cell: float) -> float:
+    """The smallest cell size [m], in steps of 0.01 mm, that covers the span in at most
+    :data:`MAX_CELLS` cells (inf above the largest scenario cell size)."""
+    step = 0.01 * MM
+    k = math.ceil(cell * math.sqrt(span_x / cell * span_y / cell / MAX_CELLS) / step)
+    while k * step <= _MAX_CELL:
+        h = k * step
+        if max(1, math.ceil(span_x / h - 1e-9)) * max(1, math.ceil(span_y / h - 1e-9)) <= MAX_CELLS:
+            return h
+        k += 1
+    return math.inf
+
+
+def _closed_mesh_triangles(file: Path, where: str) -> np.ndarray:
+    """The triangles (m, 3, 3) of the STL ``file`` [file units]; InputError unless they form
+    a closed surface (after merging equal vertices every edge belongs to exactly two)."""
+    from feedopt.process.stl import read_stl
+
+    if not file.is_file():
+        raise InputError(f"{where}: no such file")
+    if file.suffix.lower() != ".stl":
+        raise InputError(f"{where}: stock.mesh must be an STL file (binary or ASCII, .stl), "
+                         f"got {file.suffix or 'no suffix'}; export the stock as STL")
+    tri = read_stl(file, what=where)
+    flat = np.round(tri.reshape(-1, 3), 8) + 0.0  # + 0.0: -0.0 and 0.0 are one vertex
+    _, ids = np.unique(flat, axis=0, return_inverse=True)
+    ids = ids.reshape(-1, 3)
+    edges = np.sort(np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [2, 0]]]), axis=1)
+    _, first, count = np.unique(edges, axis=0, return_index=True, return_counts=True)
+    if np.all(count == 2):
+        return tri
+    k = int(first[np.argmax(count != 2)]) % ids.shape[0]
+    single = int(np.sum(count == 1))
+    raise InputError(
+        f"{where}: is not closed (not watertight: {single:,} edge(s) belong to one triangle "
+        f"only, {int(np.sum(count > 2)):,} to more than two; the first at triangle {k}, from 0, "
+        f"near {', '.join(f'{v:g}' for v in tri[k].mean(axis=0))}); a stock needs a closed solid")
+
+
+def _mesh_tops(tri: np.ndarray, lo: np.ndarray, tol: float, cell: float, shape,
+               where: str) -> np.ndarray:
+    """Top of the material per cell (flat, length nx * ny) [m] of the closed mesh ``tri``
+    [m] whose bounds start at ``lo``; InputError where a column is not one solid on z0."""
+    nx, ny = shape
+    cells, z = _vertical_crossings(tri, (lo[0], lo[1]), cell, (nx, ny))
+    if cells.size == 0:
+        raise InputError(
+            f"{where}: no cell centre lies inside the mesh: its x-y extent, "
+            f"{(tri[..., 0].max() - lo[0]) / MM:.4g} x {(tri[..., 1].max() - lo[1]) / MM:.4g} mm, "
+            f"is smaller than the {cell / MM:g} mm cells (check the units)")
+    # sort per cell, merge crossings within tol (a line through a shared edge)
+    order = np.lexsort((z, cells))
+    cells, z = cells[order], z[order]
+    dup = np.concatenate([[False], (cells[1:] == cells[:-1]) & (np.diff(z) <= tol)])
+    cells, z = cells[~dup], z[~dup]
+    count = np.bincount(cells, minlength=nx * ny)
+    first = np.cumsum(count) - count
+
+    def at(c: int) -> str:
+        i, j = divmod(int(c), ny)
+        x, y = lo[0] + (i + 0.5) * cell, lo[1] + (j + 0.5) * cell
+        return f"x = {x / MM:g} mm, y = {y / MM:g} mm"
+
+    odd = np.flatnonzero(count % 2 == 1)
+    if odd.size:
+        raise InputError(
+            f"{where}: the vertical line at {at(odd[0])} crosses its surface "
+            f"{count[odd[0]]} times (an odd number: the mesh is not a consistent solid there)"
+        )
+    many = np.flatnonzero(count > 2)
+    if many.size:
+        c = many[0]
+        zs = ", ".join(f"{v / MM:g}" for v in z[first[c] : first[c] + count[c]])
+        raise InputError(
+            f"{where}: the vertical line at {at(c)} passes through material, "
+            f"air and material again (surface at z = {zs} mm): an overhang, undercut or "
+            "cavity, which a Z-map (one column of material per cell) cannot represent"
+        )
+    solid = np.flatnonzero(count == 2)
+    bottoms, tops = z[first[solid]], z[first[solid] + 1]
+    floating = bottoms > lo[2] + tol
+    if np.any(floating):
+        k = int(np.argmax(floating))
+        raise InputError(
+            f"{where}: at {at(solid[k])} the material starts at z = "
+            f"{bottoms[k] / MM:g} mm, above the mesh's bottom z = {lo[2] / MM:g} mm: a Z-map's "
+            "columns all stand on one flat bottom"
+        )
+    heights = np.full(nx * ny, lo[2], dtype=np.float32)
+    heights[solid] = tops
+    return heights
 
 
 @dataclass(frozen=True)
@@ -207,21 +349,27 @@ class ZMap:
         z0: float,
         z1: float,
         cell: float = DEFAULT_CELL,
+        where: str = "stock box",
     ) -> ZMap:
         """A box of stock ``[x0, x1] x [y0, y1] x [z0, z1]`` [m] on cells of size ``cell``.
 
-        The x and y extents are rounded up to whole cells (to ``x0 + nx h``, ``y0 + ny h``).
+        The x and y extents are rounded up to whole cells (to ``x0 + nx h``, ``y0 + ny h``);
+        more than :data:`MAX_CELLS` cells are refused (:func:`grid_shape`), ``where`` naming
+        the box in the message.
         """
+        if not all(math.isfinite(v) for v in (x0, x1, y0, y1, z0, z1)):
+            raise InputError(f"{where}: every corner coordinate must be a finite number of mm, "
+                             f"got x {x0 / MM:g}..{x1 / MM:g}, y {y0 / MM:g}..{y1 / MM:g}, "
+                             f"z {z0 / MM:g}..{z1 / MM:g} mm")
         if not (x1 > x0 and y1 > y0 and z1 > z0):
             raise InputError(
-                "stock box needs x1 > x0, y1 > y0 and z1 > z0, got "
+                f"{where} needs x1 > x0, y1 > y0 and z1 > z0, got "
                 f"x {x0 / MM:g}..{x1 / MM:g}, y {y0 / MM:g}..{y1 / MM:g}, "
                 f"z {z0 / MM:g}..{z1 / MM:g} mm"
             )
         if not (math.isfinite(cell) and cell > 0):
             raise InputError(f"Z-map cell size must be > 0 mm, got {cell / MM:g} mm")
-        nx = max(1, math.ceil((x1 - x0) / cell - 1e-9))
-        ny = max(1, math.ceil((y1 - y0) / cell - 1e-9))
+        nx, ny = grid_shape(x1 - x0, y1 - y0, cell, where)
         return cls(np.full((nx, ny), z1, dtype=np.float32), (x0, y0), cell, z0)
 
     @classmethod
@@ -230,15 +378,18 @@ class ZMap:
         path: str | os.PathLike[str],
         cell: float = DEFAULT_CELL,
         *,
-        scale: float = 1.0,
+        scale: float = MM,
+        where: str | None = None,
     ) -> ZMap:
-        """A stock from a closed triangle mesh file (STL, OBJ, PLY, ... as trimesh reads it).
+        """A stock from a closed triangle mesh in an STL file (binary or ASCII).
 
         The grid covers the mesh's xy bounds from their lower corner, rounded up to whole
-        cells as in :meth:`box`; the bottom z0 is the mesh's lowest z. Each cell's top is
-        where the vertical line through its centre (nudged by 1e-6 h, so that it misses the
-        edges of meshes with round coordinates) leaves the solid: the crossings with every
-        triangle that is not vertical, found with numpy (no ray-tracing backend needed).
+        cells as in :meth:`box` (a span within 1e-3 cells of whole cells, float32 rounding,
+        is rounded down; at most :data:`MAX_CELLS`, checked before allocating); the
+        bottom z0 is the mesh's lowest z. Each cell's top is where the vertical line through
+        its centre (nudged by 1e-6 h, so that it misses the edges of meshes with round
+        coordinates) leaves the solid: the crossings with every triangle that is not
+        vertical, found with numpy (no ray-tracing backend needed).
 
         A Z-map holds one column of material per cell, standing on the bottom. A mesh it
         cannot represent is refused with InputError naming the place: a line through
@@ -247,84 +398,27 @@ class ZMap:
 
         Parameters
         ----------
-        path : the mesh file.
+        path : the STL file.
         cell : cell size h [m].
-        scale : mesh units to m (STL has no units: 1e-3 for a mesh in mm).
+        scale : metres per mesh unit (STL has no units): 1e-3 (the default) for a mesh in
+            mm, the CAD convention; 1.0 for a mesh in metres.
+        where : how messages name the mesh (default: the file and the unit it is read in).
         """
         if not (math.isfinite(cell) and cell > 0):
             raise InputError(f"Z-map cell size must be > 0 mm, got {cell / MM:g} mm")
         if not (math.isfinite(scale) and scale > 0):
             raise InputError(f"stock mesh scale must be > 0, got {scale:g}")
         file = Path(path)
-        if not file.is_file():
-            raise InputError(f"stock mesh {file}: no such file")
-        try:
-            import trimesh
-        except ImportError as exc:  # pragma: no cover - depends on the environment
-            raise InputError(
-                "ZMap.from_mesh needs the trimesh package (pip install trimesh)"
-            ) from exc
-        try:
-            mesh = trimesh.load(file, force="mesh")
-        except Exception as exc:  # trimesh raises many types for unreadable files
-            raise InputError(f"stock mesh {file}: not readable as a triangle mesh ({exc})") from exc
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            raise InputError(f"stock mesh {file}: holds no triangles")
-        if not np.all(np.isfinite(mesh.vertices)):
-            raise InputError(f"stock mesh {file}: has non-finite vertex coordinates")
-        if not mesh.is_watertight:
-            raise InputError(
-                f"stock mesh {file}: is not closed (not watertight: some edges belong to one "
-                "triangle only); a stock needs a closed solid"
-            )
-        tri = np.asarray(mesh.triangles, dtype=float) * scale
+        where = where or f"stock mesh {file} (read in {_unit_text(scale)})"
+        tri = _closed_mesh_triangles(file, where) * scale
         lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
+        if not np.all(np.isfinite(hi - lo)):
+            raise InputError(f"{where}: its coordinates times {scale:g} m overflow")
         if not (hi[0] > lo[0] and hi[1] > lo[1] and hi[2] > lo[2]):
-            raise InputError(f"stock mesh {file}: is flat (no volume)")
-        nx = max(1, math.ceil((hi[0] - lo[0]) / cell - 1e-9))
-        ny = max(1, math.ceil((hi[1] - lo[1]) / cell - 1e-9))
-        tol = 1e-6 * float(np.max(hi - lo))
-        cells, z = _vertical_crossings(tri, (lo[0], lo[1]), cell, (nx, ny))
-        # sort per cell, merge crossings within tol (a line through a shared edge)
-        order = np.lexsort((z, cells))
-        cells, z = cells[order], z[order]
-        dup = np.concatenate([[False], (cells[1:] == cells[:-1]) & (np.diff(z) <= tol)])
-        cells, z = cells[~dup], z[~dup]
-        count = np.bincount(cells, minlength=nx * ny)
-        first = np.cumsum(count) - count
-
-        def where(c: int) -> str:
-            i, j = divmod(int(c), ny)
-            x, y = lo[0] + (i + 0.5) * cell, lo[1] + (j + 0.5) * cell
-            return f"x = {x / MM:g} mm, y = {y / MM:g} mm"
-
-        odd = np.flatnonzero(count % 2 == 1)
-        if odd.size:
-            raise InputError(
-                f"stock mesh {file}: the vertical line at {where(odd[0])} crosses its surface "
-                f"{count[odd[0]]} times (an odd number: the mesh is not a consistent solid there)"
-            )
-        many = np.flatnonzero(count > 2)
-        if many.size:
-            c = many[0]
-            zs = ", ".join(f"{v / MM:g}" for v in z[first[c] : first[c] + count[c]])
-            raise InputError(
-                f"stock mesh {file}: the vertical line at {where(c)} passes through material, "
-                f"air and material again (surface at z = {zs} mm): an overhang, undercut or "
-                "cavity, which a Z-map (one column of material per cell) cannot represent"
-            )
-        solid = np.flatnonzero(count == 2)
-        bottoms, tops = z[first[solid]], z[first[solid] + 1]
-        floating = bottoms > lo[2] + tol
-        if np.any(floating):
-            k = int(np.argmax(floating))
-            raise InputError(
-                f"stock mesh {file}: at {where(solid[k])} the material starts at z = "
-                f"{bottoms[k] / MM:g} mm, above the mesh's bottom z = {lo[2] / MM:g} mm: a Z-map's "
-                "columns all stand on one flat bottom"
-            )
-        heights = np.full(nx * ny, lo[2])
-        heights[solid] = tops
+            raise InputError(f"{where}: is flat (no volume)")
+        # STL coordinates are float32: a span of whole cells may come out 1e-4 cells longer
+        nx, ny = grid_shape(hi[0] - lo[0], hi[1] - lo[1], cell, where, slack=1e-3)
+        heights = _mesh_tops(tri, lo, 1e-6 * float(np.max(hi - lo)), cell, (nx, ny), where)
         return cls(heights.reshape(nx, ny), (float(lo[0]), float(lo[1])), cell, float(lo[2]))
 
     @property

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from feedopt.errors import InputError
-from feedopt.process._io import number, read_yaml_mapping
+from feedopt.process._io import check_keys, number, read_yaml_mapping, text
 from feedopt.units import MM
 
 
@@ -59,14 +59,25 @@ def validate_tool(tool: Tool, where: str = "tool") -> None:
         )
 
 
-def load_tool(path: str | Path) -> Tool:
-    """Read a cutter YAML file.
+#: Keys of a tool file: the ones the model uses, then free text and informative lengths.
+TOOL_KEYS = ("name", "diameter_mm", "teeth", "helix_deg", "flute_length_mm", "source",
+             "material", "overall_length_mm", "shank_diameter_mm")
+_FLAT_ONLY = ("feedopt models square (flat) end mills only: a corner radius, ball nose or "
+              "other shape is not supported")
+_TOOL_HINTS = {"corner": _FLAT_ONLY, "ball": _FLAT_ONLY, "shape": _FLAT_ONLY,
+               "type": _FLAT_ONLY, "radius": _FLAT_ONLY}
 
-    Fields: ``name``, ``diameter_mm``, ``teeth``, ``helix_deg``, ``flute_length_mm``
-    (``source:`` and other keys are ignored).
+
+def load_tool(path: str | Path) -> Tool:
+    """Read a cutter YAML file (strict: unknown keys are refused).
+
+    Fields: ``name``, ``diameter_mm``, ``teeth``, ``helix_deg``, ``flute_length_mm``; optional
+    and not used by the model: ``source`` and ``material`` (text), ``overall_length_mm`` and
+    ``shank_diameter_mm`` (> 0; the overall length at least the flute length).
     """
     data = read_yaml_mapping(path, "tool")
     where = f"tool file {str(path)!r}"
+    check_keys(data, TOOL_KEYS, where, _TOOL_HINTS)
     teeth = data.get("teeth")
     if teeth is None:
         raise InputError(f"{where}: missing field 'teeth'")
@@ -81,10 +92,26 @@ def load_tool(path: str | Path) -> Tool:
         raise InputError(f"{where}.helix_deg: must be in [0, 90) deg, got {helix_deg:g}")
     if flute_mm <= 0:
         raise InputError(f"{where}.flute_length_mm: must be > 0 mm, got {flute_mm:g}")
+    _check_informative(data, where, flute_mm)
     return Tool(
-        name=str(data.get("name", Path(path).stem)),
+        name=text(data, "name", where, Path(path).stem),
         diameter=diameter_mm * MM,
         teeth=teeth,
         helix=math.radians(helix_deg),
         flute_length=flute_mm * MM,
     )
+
+
+def _check_informative(data: dict, where: str, flute_mm: float) -> None:
+    """The optional fields the model does not use still hold what they say."""
+    text(data, "source", where)
+    text(data, "material", where)
+    for key in ("overall_length_mm", "shank_diameter_mm"):
+        if data.get(key) is None:
+            continue
+        value = number(data, key, where)
+        if value <= 0:
+            raise InputError(f"{where}.{key}: must be > 0 mm, got {value:g}")
+        if key == "overall_length_mm" and value < flute_mm:
+            raise InputError(f"{where}.overall_length_mm: {value:g} mm is shorter than the "
+                             f"flute length {flute_mm:g} mm")
