@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import math
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +23,10 @@ import yaml
 from feedopt.errors import InputError
 from feedopt.outfile import check_output_file, write_atomically
 from feedopt.robot.identification import (
+    MAX_DISPLACEMENT_M,
+    MAX_FORCE_N,
+    MAX_MOMENT_NM,
+    MAX_ROTATION_RAD,
     MAX_TESTS,
     LoadPlan,
     LoadTests,
@@ -28,6 +34,7 @@ from feedopt.robot.identification import (
     StiffnessIdentification,
     WarningKind,
     identify,
+    repeat_groups,
     suggest_poses,
 )
 from feedopt.robot.model import RobotModel, load_robot
@@ -41,6 +48,13 @@ FORCE_COLUMNS = ("fx_n", "fy_n", "fz_n")
 MOMENT_COLUMNS = ("mx_nm", "my_nm", "mz_nm")
 DISPLACEMENT_COLUMNS = ("dx_mm", "dy_mm", "dz_mm")
 ROTATION_COLUMNS = ("drx_mrad", "dry_mrad", "drz_mrad")
+#: Largest magnitude [unit of the column] of a static load test's value, by column.
+_LIMITS: dict[str, tuple[float, str]] = {
+    **{c: (MAX_FORCE_N, "N") for c in FORCE_COLUMNS},
+    **{c: (MAX_MOMENT_NM, "N m") for c in MOMENT_COLUMNS},
+    **{c: (MAX_DISPLACEMENT_M / MM, "mm") for c in DISPLACEMENT_COLUMNS},
+    **{c: (MAX_ROTATION_RAD / _MRAD, "mrad") for c in ROTATION_COLUMNS},
+}
 
 
 def joint_columns(dof: int) -> tuple[str, ...]:
@@ -61,7 +75,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "rotation vector measured, base frame; joint angles as in the robot's URDF; '#' "
             "comment lines allowed). --method cp fits all six at once (Eq. 3.19); dpp (the "
             "thesis's choice) fits the arm from the wrist-centre displacement, then the wrist "
-            "(Eq. 3.20), and needs the rotations. Prints the stiffnesses with standard errors, "
+            "(Eq. 3.20), and needs the rotations. Repeats of a test (same pose and load) are "
+            "averaged and count once. Prints the stiffnesses with standard errors, "
             "the condition number and the residual of every test; --out writes the "
             "joint_stiffness_mnm_per_rad block for robot.yaml. Refuses (exit 2) tests that "
             "cannot identify a joint, naming it. With --suggest N, picks N non-singular poses "
@@ -115,32 +130,30 @@ def run(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- reading the CSV
 
 
-def read_load_tests(path: str | Path, robot: RobotModel) -> tuple[LoadTests, list[int]]:
-    """Load tests (SI) from the CSV, and the file line of each test.
+def _data_lines(text: str) -> Iterator[tuple[int, str]]:
+    """(line number, line) of every line that is not blank or a '#' comment, lazily."""
+    for no, ln in enumerate(io.StringIO(text, newline=None), start=1):
+        ln = ln.rstrip("\n")
+        if ln.strip() and not ln.lstrip().startswith("#"):
+            yield no, ln
 
-    InputError naming the file, line and column for a missing, unknown or repeated column, a
-    value that is not a finite number, a joint angle outside the robot's limits, a test with
-    no load, a rotation given in part.
-    """
-    p = Path(path)
-    text = read_user_text(p, "load-test CSV", encoding="utf-8-sig")
-    lines = [(no, ln) for no, ln in enumerate(text.splitlines(), start=1)
-             if ln.strip() and not ln.lstrip().startswith("#")]
-    qcols = joint_columns(robot.dof)
-    required = qcols + FORCE_COLUMNS + DISPLACEMENT_COLUMNS
-    expected = ",".join(qcols + FORCE_COLUMNS + MOMENT_COLUMNS + DISPLACEMENT_COLUMNS)
-    if not lines:
-        raise InputError(f"load-test CSV {p} is empty; expected a header {expected}"
-                         f"[,{','.join(ROTATION_COLUMNS)}]")
-    rows = list(csv.reader([ln for _, ln in lines]))
-    header = [h.strip() for h in rows[0]]
+
+def _expected_header(dof: int) -> str:
+    return (",".join(joint_columns(dof) + FORCE_COLUMNS + MOMENT_COLUMNS + DISPLACEMENT_COLUMNS)
+            + f"[,{','.join(ROTATION_COLUMNS)}]")
+
+
+def _read_header(p: Path, no: int, line: str, dof: int) -> list[str]:
+    """The column names of the header line, or InputError (unknown, repeated, missing)."""
+    header = [h.strip() for h in next(csv.reader([line]))]
+    required = joint_columns(dof) + FORCE_COLUMNS + DISPLACEMENT_COLUMNS
     known = set(required + MOMENT_COLUMNS + ROTATION_COLUMNS)
     for col in header:
         if col not in known:
-            raise InputError(f"{p} line {lines[0][0]}: unknown column {col!r}; the columns are "
-                             f"{expected}[,{','.join(ROTATION_COLUMNS)}]")
+            raise InputError(f"{p} line {no}: unknown column {col!r}; the columns are "
+                             f"{_expected_header(dof)}")
         if header.count(col) > 1:
-            raise InputError(f"{p} line {lines[0][0]}: column {col!r} is given twice")
+            raise InputError(f"{p} line {no}: column {col!r} is given twice")
     missing = [c for c in required if c not in header]
     for group in (MOMENT_COLUMNS, ROTATION_COLUMNS):
         present = [c for c in group if c in header]
@@ -148,60 +161,101 @@ def read_load_tests(path: str | Path, robot: RobotModel) -> tuple[LoadTests, lis
             missing += [c for c in group if c not in header]
     if missing:
         raise InputError(f"{p}: missing column(s) {', '.join(missing)}; expected header "
-                         f"{expected}[,{','.join(ROTATION_COLUMNS)}] (moments and rotations "
-                         "optional, all three or none)")
-    if len(rows) - 1 > MAX_TESTS:
-        raise InputError(f"{p}: {len(rows) - 1} tests, more than the {MAX_TESTS} read; a few "
-                         "hundred are plenty (feedopt calibrate-stiffness --suggest)")
-    has_m, has_r = MOMENT_COLUMNS[0] in header, ROTATION_COLUMNS[0] in header
-    idx = {c: header.index(c) for c in header}
-    n = len(rows) - 1
-    if n == 0:
+                         f"{_expected_header(dof)} (moments and rotations optional, all three "
+                         "or none)")
+    return header
+
+
+def _parse_row(p: Path, no: int, line: str, header: list[str]) -> list[float]:
+    """The numbers of one test row (NaN for an empty rotation cell), or InputError."""
+    row = next(csv.reader([line]))
+    if len(row) != len(header):
+        raise InputError(f"{p} line {no}: {len(row)} values, the header has {len(header)}")
+    out = []
+    for col, raw in zip(header, row, strict=True):
+        cell = raw.strip()
+        if cell == "" and col in ROTATION_COLUMNS:
+            out.append(math.nan)
+            continue
+        try:
+            v = float(cell)
+        except ValueError:
+            hint = " (empty: fill in the measurement)" if cell == "" else ""
+            raise InputError(f"{p} line {no}, column {col}: {cell!r} is not a number"
+                             f"{hint}") from None
+        if not math.isfinite(v):
+            raise InputError(f"{p} line {no}, column {col}: {cell} is not finite")
+        limit = _LIMITS.get(col)
+        if limit is not None and abs(v) > limit[0]:
+            raise InputError(f"{p} line {no}, column {col}: {cell} is beyond the {limit[0]:g} "
+                             f"{limit[1]} of a static load test (a unit slip?)")
+        out.append(v)
+    if ROTATION_COLUMNS[0] in header:
+        blank = [c for c, v in zip(header, out, strict=True)
+                 if c in ROTATION_COLUMNS and math.isnan(v)]
+        if 0 < len(blank) < 3:
+            raise InputError(f"{p} line {no}: column {blank[0]} is empty; give all three "
+                             "rotations of a test or none")
+    return out
+
+
+def _read_rows(p: Path, lines: Iterator[tuple[int, str]],
+               header: list[str]) -> tuple[np.ndarray, list[int]]:
+    """(rows, columns as in the header) of the tests and their line numbers; stops reading at
+    the first row past :data:`MAX_TESTS` (a large file is refused before it is parsed)."""
+    rows, numbers = [], []
+    for no, line in lines:
+        if len(rows) == MAX_TESTS:
+            raise InputError(f"{p} line {no}: more than {MAX_TESTS} tests, the most read; a "
+                             "few hundred are plenty (feedopt calibrate-stiffness --suggest)")
+        rows.append(_parse_row(p, no, line, header))
+        numbers.append(no)
+    if not rows:
         raise InputError(f"load-test CSV {p} has a header but no tests")
-    values = {c: np.full(n, np.nan) for c in header}
-    for r, (row, (no, _)) in enumerate(zip(rows[1:], lines[1:], strict=True)):
-        if len(row) != len(header):
-            raise InputError(f"{p} line {no}: {len(row)} values, the header has {len(header)}")
-        for col in header:
-            cell = row[idx[col]].strip()
-            if cell == "" and col in ROTATION_COLUMNS:
-                continue
-            try:
-                v = float(cell)
-            except ValueError:
-                hint = " (empty: fill in the measurement)" if cell == "" else ""
-                raise InputError(f"{p} line {no}, column {col}: {cell!r} is not a number"
-                                 f"{hint}") from None
-            if not math.isfinite(v):
-                raise InputError(f"{p} line {no}, column {col}: {cell} is not finite")
-            values[col][r] = v
-        if has_r:
-            blank = [c for c in ROTATION_COLUMNS if math.isnan(values[c][r])]
-            if 0 < len(blank) < 3:
-                raise InputError(f"{p} line {no}: column {blank[0]} is empty; give all three "
-                                 "rotations of a test or none")
+    return np.array(rows, dtype=float), numbers
+
+
+def read_load_tests(path: str | Path, robot: RobotModel) -> tuple[LoadTests, list[int]]:
+    """Load tests (SI) from the CSV, and the file line of each test.
+
+    InputError naming the file, line and column for a missing, unknown or repeated column, a
+    value that is not a finite number or beyond a static load test's (:data:`_LIMITS`), a
+    joint angle outside the robot's limits, a test with no load, a rotation given in part,
+    more than :data:`MAX_TESTS` tests (refused at the first row past it).
+    """
+    p = Path(path)
+    lines = _data_lines(read_user_text(p, "load-test CSV", encoding="utf-8-sig"))
+    first = next(lines, None)
+    if first is None:
+        raise InputError(f"load-test CSV {p} is empty; expected a header "
+                         f"{_expected_header(robot.dof)}")
+    header = _read_header(p, *first, robot.dof)
+    table, numbers = _read_rows(p, lines, header)
+    values = dict(zip(header, table.T, strict=True))
+    qcols = joint_columns(robot.dof)
     q = np.deg2rad(np.column_stack([values[c] for c in qcols]))
     out_of_range = (q < robot.q_lower) | (q > robot.q_upper)
     if out_of_range.any():
         r, j = map(int, np.argwhere(out_of_range)[0])
         raise InputError(
-            f"{p} line {lines[r + 1][0]}, column {qcols[j]}: {values[qcols[j]][r]:g} deg is "
+            f"{p} line {numbers[r]}, column {qcols[j]}: {values[qcols[j]][r]:g} deg is "
             f"outside joint {j + 1}'s limits [{np.rad2deg(robot.q_lower[j]):.1f}, "
             f"{np.rad2deg(robot.q_upper[j]):.1f}] deg of {robot.name}; are the angles in the "
             "convention of the robot's URDF?")
     forces = np.column_stack([values[c] for c in FORCE_COLUMNS])
-    moments = (np.column_stack([values[c] for c in MOMENT_COLUMNS]) if has_m
-               else np.zeros_like(forces))
+    moments = (np.column_stack([values[c] for c in MOMENT_COLUMNS])
+               if MOMENT_COLUMNS[0] in values else np.zeros_like(forces))
     wrench = np.hstack([forces, moments])
     unloaded = np.flatnonzero(~np.any(wrench != 0, axis=1))
     if unloaded.size:
-        raise InputError(f"{p} line {lines[unloaded[0] + 1][0]}: the test has no load (force "
+        raise InputError(f"{p} line {numbers[unloaded[0]]}: the test has no load (force "
                          "and moment all zero), so it cannot tell any stiffness: remove it")
     disp = np.column_stack([values[c] for c in DISPLACEMENT_COLUMNS]) * MM
-    rot = (np.column_stack([values[c] for c in ROTATION_COLUMNS]) * _MRAD if has_r else None)
+    rot = (np.column_stack([values[c] for c in ROTATION_COLUMNS]) * _MRAD
+           if ROTATION_COLUMNS[0] in values else None)
     if rot is not None and np.isnan(rot).all():
         rot = None
-    return LoadTests(q, wrench, disp, rot), [no for no, _ in lines[1:]]
+    return LoadTests(q, wrench, disp, rot), numbers
 
 
 # --------------------------------------------------------------------------- identification
@@ -209,6 +263,31 @@ def read_load_tests(path: str | Path, robot: RobotModel) -> tuple[LoadTests, lis
 
 def _fmt(values: np.ndarray) -> str:
     return "[" + ", ".join(f"{v:.6g}" for v in values) + "]"
+
+
+def _count_tests(n_tests: int, n_distinct: int) -> str:
+    """'30 load tests', or '30 load tests (12 distinct, repeats averaged)'."""
+    if n_distinct == n_tests:
+        return f"{n_tests} load tests"
+    return f"{n_tests} load tests ({n_distinct} distinct, repeats averaged)"
+
+
+def _print_noise(result: StiffnessIdentification) -> None:
+    """The noise estimate of the fit and, with repeats, their repeatability."""
+    sig, rep = result.sigma / np.array([MM, _MRAD]), result.repeatability / np.array([MM, _MRAD])
+    if np.isfinite(sig[0]):
+        noise = f"translation {sig[0]:.4g} mm" + (
+            f", rotation {sig[1]:.4g} mrad" if np.isfinite(sig[1]) else "")
+    else:
+        noise = "not estimable"
+    print(f"noise estimate from the residuals of the distinct tests: {noise} "
+          f"({result.dof_residual} residual degrees of freedom)")
+    if result.repeatability_dof:
+        spread = f"translation {rep[0]:.4g} mm" + (
+            f", rotation {rep[1]:.4g} mrad" if np.isfinite(rep[1]) else "")
+        same = " (the repeats are identical to the last digit)" if not np.nanmax(rep) else ""
+        print(f"repeatability (scatter of repeated tests about their means): {spread} "
+              f"({result.repeatability_dof} degrees of freedom){same}")
 
 
 def stiffness_fragment(result: StiffnessIdentification, source: str, n_tests: int,
@@ -221,11 +300,12 @@ def stiffness_fragment(result: StiffnessIdentification, source: str, n_tests: in
     comments = (
         f"Joint stiffness of {' '.join(robot_name.split())} identified by feedopt "
         f"calibrate-stiffness ({key.upper()}, thesis Eq. {eq})\n"
-        f"from {n_tests} load tests at {n_poses} poses. Replace the "
+        f"from {_count_tests(n_tests, result.n_distinct)} at {n_poses} poses. Replace the "
         "joint_stiffness_mnm_per_rad block of robot.yaml\n"
         f"with this one (keep the other set if you use it); a scenario selects it with "
         f"robot.stiffness: {key}.\n"
-        f"standard errors [MNm/rad]: {_fmt(se)}\n"
+        f"standard errors [MNm/rad]: "
+        f"{_fmt(se) if np.all(np.isfinite(se)) else 'not estimable (no residual left)'}\n"
         f"condition number {result.condition_number:.4g}; residual degrees of freedom "
         f"{result.dof_residual}")
     doc = {"joint_stiffness_mnm_per_rad": {key: [float(f"{v:.6g}") for v in k],
@@ -238,14 +318,16 @@ def _identify(args: argparse.Namespace) -> int:
     method = Method(args.method or Method.DPP)
     if args.out is not None:
         check_output_file(args.out, "--out", [".yaml", ".yml"], example="stiffness.yaml",
-                          inputs=[args.tests_csv, Path(args.robot) / "robot.yaml"])
+                          inputs=[args.tests_csv, Path(args.robot)])  # every robot file
     robot = load_robot(args.robot)
     tests, line_numbers = read_load_tests(args.tests_csv, robot)
     result = identify(robot, tests, method)
     names = [f"line {no}" for no in line_numbers]
-    n_poses = len(np.unique(tests.q, axis=0))
+    ones = np.ones(len(tests.q))
+    n_poses = int(repeat_groups(tests.q, ones[:, None], ones > 0).max()) + 1  # within 0.01 deg
     measured = "translation" + (" + rotation" if tests.rotation is not None else "")
-    print(f"robot: {robot.name}   {len(line_numbers)} load tests at {n_poses} poses   "
+    print(f"robot: {robot.name}   {_count_tests(len(line_numbers), result.n_distinct)} at "
+          f"{n_poses} pose{'s' * (n_poses != 1)}   "
           f"measured: {measured}")
     how = ("all six compliances at once (Eq. 3.19)" if method is Method.CP else
            "arm (joints 1-3) from the wrist-centre displacement, then the wrist (Eq. 3.20)")
@@ -257,12 +339,7 @@ def _identify(args: argparse.Namespace) -> int:
               f"{se / abs(k):8.2%}")
     print(f"condition number of the identification (columns scaled): "
           f"{result.condition_number:.4g}")
-    sig = result.sigma
-    noise = f"{sig[0] / MM:.4g} mm"
-    if np.isfinite(sig[1]):
-        noise += f", rotation {sig[1] / _MRAD:.4g} mrad"
-    print(f"noise estimate from the residuals: translation {noise} "
-          f"({result.dof_residual} residual degrees of freedom)")
+    _print_noise(result)
     print("residual per test (measured - predicted), |d| [mm] and |dtheta| [mrad]:")
     res_t = np.linalg.norm(result.residual[:, :3], axis=1) / MM
     res_r = np.linalg.norm(result.residual[:, 3:], axis=1) / _MRAD
@@ -278,7 +355,7 @@ def _identify(args: argparse.Namespace) -> int:
                              "positive stiffnesses only")
         source = (f"feedopt calibrate-stiffness {Path(args.tests_csv).name} --method "
                   f"{method.value} (thesis 3.4, Eq. {'3.20' if method is Method.DPP else '3.19'})"
-                  f", {len(line_numbers)} tests")
+                  f", {_count_tests(len(line_numbers), result.n_distinct)}")
         text = stiffness_fragment(result, source, len(line_numbers), n_poses, robot.name)
         write_atomically(args.out, text)
         print(f"wrote {args.out}")
@@ -307,7 +384,7 @@ def plan_csv(plan: LoadPlan, dof: int, rotations: bool, header_comment: str) -> 
 def _suggest(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_file(args.out, "--out", [".csv"], example="load_tests.csv",
-                          inputs=[Path(args.robot) / "robot.yaml"])
+                          inputs=[Path(args.robot)])  # every robot file
     robot = load_robot(args.robot)
     load = 1000.0 if args.load_n is None else args.load_n
     lever_mm = 200.0 if args.lever_mm is None else args.lever_mm

@@ -24,6 +24,18 @@ residuals without bias for the linear estimator used (method of moments on
 generalised least squares). Standard errors are ``sqrt(diag(M S M^T))`` for the estimator
 ``x = M b``, propagated to ``k = 1/x`` to first order (``se_k = se_x / x^2``).
 
+Repeats: tests at the same pose and load (within :data:`REPEAT_ANGLE_RAD` and
+:data:`REPEAT_LOAD_REL`, :func:`repeat_groups`) are one test measured several times. They are
+averaged into one distinct test before the fit, so every distinct test counts once (as the
+distinct tests alone would, with their means as values) and the residual degrees of freedom
+count distinct tests. The noise behind the standard errors is then estimated from the
+residuals of the means, which holds whatever part of the misfit the repeats cannot average
+out (setup and model errors); the scatter of the repeats about their means is reported
+separately as the repeatability (pooled, after the small differences in pose and load are
+taken out with the fitted model). Repeats alone (one distinct test measured 30 times) leave
+no residual for the means: no standard error, said so. Values identical to the last digit
+are flagged: a real repeat never is, so they are copies.
+
 Identifiability: a joint whose compliance does not change the measurements (e.g. joint 1 under
 vertical loads only, joint 6 when every force acts on its axis) makes ``A`` rank deficient;
 :class:`UnidentifiableJoints` names it. The condition number is that of ``A`` with its
@@ -36,11 +48,12 @@ scalings (van der Sluis 1969), so it does not depend on units.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import StrEnum
 
 import numpy as np
 from scipy.optimize import minimize_scalar, nnls
+from scipy.spatial import cKDTree
 
 from feedopt.errors import InputError
 from feedopt.robot.ik import IKOptions
@@ -84,6 +97,24 @@ MAX_CANDIDATES = 20_000
 EXCHANGE_PASSES = 20
 #: Starting noise guess of both groups [m], [rad] (equal weights: 1 mm counts as 1 mrad).
 _SIGMA0 = 1e-5
+#: Largest magnitude of a load-test value: beyond it the row is not a static load test of a
+#: robot but a typo, a unit slip or garbage (the linear model of Eq. 3.19 holds far below).
+MAX_FORCE_N = 1e5  # 100 kN, ten times the heaviest robot payload
+MAX_MOMENT_NM = 1e5  # 100 kN m
+MAX_DISPLACEMENT_M = 0.1  # 100 mm
+MAX_ROTATION_RAD = 0.1  # 100 mrad (5.7 deg)
+#: Below these largest measured values the tests show no deflection (no instrument resolves
+#: 0.1 um or 0.1 urad): an infinitely stiff robot, or measurements not filled in.
+MIN_DEFLECTION_M = 1e-7
+MIN_ROTATION_RAD = 1e-7
+#: Two tests are repeats of one when every joint angle agrees within REPEAT_ANGLE_RAD
+#: (0.01 deg, the resolution of Table A.3's poses) and their wrenches within REPEAT_LOAD_REL
+#: of the larger one (forces [N] and moments [N m] over a lever of WRENCH_LENGTH_M: the same
+#: weights, or a load cell's reading of the same set load), and both or neither measure the
+#: rotation.
+REPEAT_ANGLE_RAD = float(np.deg2rad(0.01))
+REPEAT_LOAD_REL = 0.02
+WRENCH_LENGTH_M = 1.0
 
 
 class Method(StrEnum):
@@ -102,6 +133,7 @@ class WarningKind(StrEnum):
     NO_REDUNDANCY = "no_redundancy"  # as many measurements as unknowns: no standard errors
     NEAR_SINGULAR_POSE = "near_singular_pose"  # K_c not negligible there (thesis 3.4)
     GEOMETRY_CHANGE = "geometry_change"  # load large enough that Eq. 3.18's K_c matters
+    EXACT_COPIES = "exact_copies"  # tests identical to an earlier one in every value
 
 
 @dataclass(frozen=True)
@@ -133,8 +165,14 @@ class IdentificationWarning:
             return (f"joint {joints}: fitted compliance <= 0 (no physical stiffness); the "
                     "tests do not determine this joint against the noise")
         if self.kind is WarningKind.NO_REDUNDANCY:
-            return ("as many measured values as unknowns: the fit is exact and no standard "
-                    "error can be estimated; add tests")
+            return ("the distinct tests give as many measured values as unknowns (repeats of "
+                    "a test count once): the fit is exact and no standard error can be "
+                    "estimated; add tests at other poses or loads")
+        if self.kind is WarningKind.EXACT_COPIES:
+            return (f"{tests}: identical to an earlier test in every value; a repeat "
+                    "measurement never agrees to the last digit, so these look like copies "
+                    "(counted once with the original, as every repeat is): remove them or give "
+                    "the real readings")
         if self.kind is WarningKind.NEAR_SINGULAR_POSE:
             return (f"{tests}: near-singular pose (Jacobian condition number up to "
                     f"{self.value:.3g} > {NEAR_SINGULAR:g}), where the neglected K_c of Eq. 3.18 "
@@ -183,8 +221,12 @@ class StiffnessIdentification:
     residual : (n, 6) measured - predicted ``[d; dtheta]`` [m, rad], NaN where not measured
     sigma : (2,) noise estimate of translations [m] and rotations [rad] (NaN: not measured)
     condition_number : column-scaled condition number (DPP: the larger of the two stages)
-    dof_residual : measured values minus unknowns
-    warnings : typed caveats (:class:`IdentificationWarning`)
+    dof_residual : measured values of the distinct tests minus unknowns
+    warnings : typed caveats (:class:`IdentificationWarning`); their ``tests`` are rows
+    test_group : (n,) index of the distinct test (repeats merged) each row belongs to
+    repeatability : (2,) pooled scatter of repeats about their means, translation [m] and
+        rotation [rad] (NaN: no repeats)
+    repeatability_dof : degrees of freedom of the translation repeatability (0: no repeats)
     """
 
     method: Method
@@ -197,6 +239,14 @@ class StiffnessIdentification:
     condition_number: float
     dof_residual: int
     warnings: tuple[IdentificationWarning, ...]
+    test_group: np.ndarray
+    repeatability: np.ndarray
+    repeatability_dof: int
+
+    @property
+    def n_distinct(self) -> int:
+        """Number of distinct tests (repeats merged)."""
+        return int(self.test_group.max()) + 1 if self.test_group.size else 0
 
 
 # --------------------------------------------------------------------------- the model
@@ -292,6 +342,16 @@ def _fit(a: np.ndarray, b: np.ndarray, groups: np.ndarray, n_groups: int,
     return LinearFit(m @ b, np.asarray(cov), est, a.shape[0] - a.shape[1], m)
 
 
+def _usable_sigma(sigma: np.ndarray) -> np.ndarray:
+    """``sigma`` for row weights: NaN (no residual) -> :data:`_SIGMA0`, 0 (an exact fit) -> the
+    floor of :func:`_fit`."""
+    ok = np.isfinite(sigma) & (sigma > 0)
+    if not ok.any():
+        return np.full(sigma.shape, _SIGMA0)
+    floor = max(1e-12 * float(sigma[ok].max()), 1e-15)
+    return np.where(np.isfinite(sigma), np.maximum(sigma, floor), _SIGMA0)
+
+
 def _weighted_pinv(a: np.ndarray, w: np.ndarray) -> np.ndarray:
     """``M`` with ``M b = argmin ||w (A x - b)||``."""
     return np.linalg.pinv(a * w[:, None]) * w[None, :]
@@ -360,11 +420,52 @@ def _check_identifiable(a: np.ndarray, joints: list[int], torque: np.ndarray) ->
 # --------------------------------------------------------------------------- identification
 
 
+def _check_magnitudes(wrench: np.ndarray, b: np.ndarray) -> None:
+    """InputError naming the first test with an absurd value, or with no deflection at all."""
+    limits = [("force", wrench[:, :3], MAX_FORCE_N, "N"),
+              ("moment", wrench[:, 3:], MAX_MOMENT_NM, "N m"),
+              ("displacement", b[:, :3], MAX_DISPLACEMENT_M, "m"),
+              ("rotation", b[:, 3:], MAX_ROTATION_RAD, "rad")]
+    for name, arr, limit, unit in limits:
+        big = np.argwhere(np.abs(arr) > limit)
+        if big.size:
+            t, c = map(int, big[0])
+            raise InputError(
+                f"load tests: test {t + 1}'s {name} component {c + 1} is {arr[t, c]:g} {unit}, "
+                f"beyond the {limit:g} {unit} of a static load test (a unit slip?)")
+    largest = float(np.abs(b[:, :3]).max())
+    if not largest >= MIN_DEFLECTION_M:
+        raise InputError(
+            f"the measurements show no deflection: the largest measured displacement is "
+            f"{largest * 1e3:g} mm (below {MIN_DEFLECTION_M * 1e3:g} mm no instrument resolves "
+            "one), which would mean an infinitely stiff robot; fill in the measured TCP "
+            "displacements")
+    rot = np.abs(b[:, 3:])
+    if not np.isnan(rot).all() and not np.nanmax(rot) >= MIN_ROTATION_RAD:
+        raise InputError(
+            f"every measured rotation is 0 (largest {np.nanmax(rot) * 1e3:g} mrad): a loaded "
+            "robot always turns its TCP; if the rotations were not measured, leave them out")
+
+
+def _check_dpp_applies(dof: int, b: np.ndarray) -> None:
+    """InputError unless DPP can run: six joints, the rotation of every test measured."""
+    if dof != 2 * N_ARM:
+        raise InputError(f"--method dpp splits 6 joints into arm and wrist; this robot "
+                         f"has {dof}: use --method cp")
+    missing = np.flatnonzero(np.isnan(b[:, 3:]).any(axis=1))
+    if missing.size:
+        raise InputError(
+            f"--method dpp needs the measured TCP rotation of every test (drx_mrad, "
+            f"dry_mrad, drz_mrad) to find the wrist-centre displacement; test "
+            f"{missing[0] + 1} has none: measure it or use --method cp")
+
+
 def _validate(robot: RobotModel, tests: LoadTests) -> tuple[np.ndarray, np.ndarray]:
     q = np.asarray(tests.q, dtype=float)
     n = q.shape[0] if q.ndim == 2 else 0
-    if q.shape != (n, robot.dof) or n == 0:
-        raise InputError(f"load tests: q must have shape (n, {robot.dof}), got {q.shape}")
+    if q.shape != (n, robot.dof) or n == 0 or not np.all(np.isfinite(q)):
+        raise InputError(f"load tests: q must be n > 0 rows of {robot.dof} finite joint angles, "
+                         f"got shape {q.shape}")
     if n > MAX_TESTS:
         raise InputError(f"{n} load tests is more than the {MAX_TESTS} read; a few hundred "
                          "are plenty (feedopt calibrate-stiffness --suggest)")
@@ -375,15 +476,64 @@ def _validate(robot: RobotModel, tests: LoadTests) -> tuple[np.ndarray, np.ndarr
     b[:, :3] = tests.displacement
     if tests.rotation is not None:
         rot = np.asarray(tests.rotation, dtype=float)
-        if rot.shape != (n, 3) or np.any(np.isinf(rot)):
-            raise InputError(f"load tests: rotation must be {n} rows of 3 numbers (NaN: none)")
+        if (rot.shape != (n, 3) or np.any(np.isinf(rot))
+                or np.any(np.isnan(rot).any(axis=1) != np.isnan(rot).all(axis=1))):
+            raise InputError(f"load tests: rotation must be {n} rows of 3 numbers (a row of "
+                             "NaN: not measured)")
         b[:, 3:] = rot
+    _check_magnitudes(np.asarray(tests.wrench, dtype=float), b)
     return q, b
+
+
+def _wrench_norm(wrench: np.ndarray) -> np.ndarray:
+    """``sqrt(|f|^2 + (|m| / WRENCH_LENGTH_M)^2)`` per row [N]."""
+    return np.hypot(np.linalg.norm(wrench[..., :3], axis=-1),
+                    np.linalg.norm(wrench[..., 3:], axis=-1) / WRENCH_LENGTH_M)
+
+
+def repeat_groups(q: np.ndarray, wrench: np.ndarray, has_rotation: np.ndarray) -> np.ndarray:
+    """Index (n,) of the distinct test each row repeats, numbered in order of appearance.
+
+    A row joins the earliest row (the group's first) whose joint angles all agree within
+    :data:`REPEAT_ANGLE_RAD`, whose wrench differs by at most :data:`REPEAT_LOAD_REL` of the
+    larger of the two (:func:`_wrench_norm`), and that measures the rotation as it does. A k-d
+    tree finds the rows with any such neighbour first, so distinct tests cost no loop.
+    """
+    n = q.shape[0]
+    norm = _wrench_norm(wrench)
+    coarse = REPEAT_LOAD_REL * max(float(norm.max()), 1e-300)  # >= every pair's tolerance
+    coords = np.hstack([q / REPEAT_ANGLE_RAD, wrench / coarse, 4.0 * has_rotation[:, None]])
+    dist = cKDTree(coords).query(coords, k=min(2, n), p=np.inf, distance_upper_bound=1.0)[0]
+    leader = np.arange(n)
+    left = np.flatnonzero(np.isfinite(dist.reshape(n, -1)[:, -1])) if n > 1 else leader[:0]
+    while left.size:  # one pass per group of repeats
+        first = left[0]
+        same = ((np.abs(q[left] - q[first]).max(axis=1) <= REPEAT_ANGLE_RAD)
+                & (_wrench_norm(wrench[left] - wrench[first])
+                   <= REPEAT_LOAD_REL * np.maximum(norm[left], norm[first]))
+                & (has_rotation[left] == has_rotation[first]))
+        leader[left[same]] = first
+        left = left[~same]
+    return np.unique(leader, return_inverse=True)[1].astype(int)
+
+
+def _group_means(group: np.ndarray, *arrays: np.ndarray) -> list[np.ndarray]:
+    """Mean of each array's rows per group (rows of a group share their NaN pattern)."""
+    counts = np.bincount(group).astype(float)
+    out = []
+    for arr in arrays:
+        total = np.zeros((counts.size,) + arr.shape[1:])
+        np.add.at(total, group, arr)
+        out.append(total / counts.reshape((-1,) + (1,) * (arr.ndim - 1)))
+    return out
 
 
 def identify(robot: RobotModel, tests: LoadTests,
              method: Method | str = Method.CP) -> StiffnessIdentification:
     """Joint stiffness from load tests by linear least squares in the compliances.
+
+    Repeats of a test (same pose and load, :func:`repeat_groups`) are averaged first and count
+    once (see the module docstring); the result's residuals and warnings refer to the rows.
 
     Parameters
     ----------
@@ -400,24 +550,64 @@ def identify(robot: RobotModel, tests: LoadTests,
     UnidentifiableJoints
         A joint (or combination) the tests cannot identify, named in the message.
     InputError
-        Malformed tests; DPP without rotations or a spherical wrist.
+        Malformed tests, absurd magnitudes, no deflection at all; DPP without rotations or a
+        spherical wrist; a system the least squares cannot solve (never a LinAlgError).
     """
     method = Method(method)
     q, b = _validate(robot, tests)
+    if method is Method.DPP:
+        _check_dpp_applies(robot.dof, b)
+    wrench = np.asarray(tests.wrench, dtype=float)
+    group = repeat_groups(q, wrench, ~np.isnan(b[:, 3]))
+    q_m, w_m, b_m = _group_means(group, q, wrench, b)
+    try:
+        core = _identify_distinct(robot, q_m, w_m, b_m, method)
+    except np.linalg.LinAlgError as exc:
+        raise InputError(f"the load tests give a least-squares system that cannot be solved "
+                         f"({exc}); check the values, or add tests at other poses") from None
+    return _per_row(robot, core, group, q, wrench, b)
+
+
+def _per_row(robot: RobotModel, core: StiffnessIdentification, group: np.ndarray,
+             q: np.ndarray, wrench: np.ndarray, b: np.ndarray) -> StiffnessIdentification:
+    """``core`` (fitted to the distinct tests) with residuals and warnings per row, the
+    repeatability of the repeats, and the exact-copy warning."""
+    n = group.size
+    if core.residual.shape[0] == n:
+        residual = core.residual
+    else:
+        a_rows = identification_matrix(tcp_jacobians(robot, q), wrench)
+        residual = b - np.einsum("nij,j->ni", a_rows, core.compliance)
+    counts = np.bincount(group)
+    spread = residual - _group_means(group, residual)[0][group]  # pure error: repeats only
+    extra = counts - 1  # repeats beyond the first, per distinct test
+    with_rot = np.zeros(counts.size, dtype=bool)
+    with_rot[group] = np.isfinite(b[:, 3])
+    dof = (3 * int(extra.sum()), 3 * int(extra[with_rot].sum()))
+    rep = np.full(2, np.nan)
+    for g, cols in enumerate((slice(0, 3), slice(3, 6))):
+        if dof[g] > 0:
+            rep[g] = float(np.sqrt(np.nansum(spread[:, cols] ** 2) / dof[g]))
+    warnings = [replace(w, tests=tuple(int(r) for r in np.flatnonzero(np.isin(group, w.tests))))
+                if w.tests else w for w in core.warnings]
+    rows = np.hstack([q, wrench, np.nan_to_num(b, nan=np.inf)])
+    first = np.unique(rows, axis=0, return_index=True)[1]
+    copies = np.setdiff1d(np.arange(n), first)
+    if copies.size:
+        warnings.append(IdentificationWarning(WarningKind.EXACT_COPIES, float(copies.size),
+                                              tests=tuple(int(r) for r in copies)))
+    return replace(core, residual=residual, warnings=tuple(warnings), test_group=group,
+                   repeatability=rep, repeatability_dof=dof[0])
+
+
+def _identify_distinct(robot: RobotModel, q: np.ndarray, wrench: np.ndarray, b: np.ndarray,
+                       method: Method) -> StiffnessIdentification:
+    """:func:`identify` of distinct tests (SI arrays; NaN rotations where not measured)."""
     n, dof = q.shape
     jac = tcp_jacobians(robot, q)
-    tau = np.einsum("nij,ni->nj", jac, tests.wrench)
-    a_full = identification_matrix(jac, tests.wrench)  # (n, 6, dof)
+    tau = np.einsum("nij,ni->nj", jac, wrench)
+    a_full = identification_matrix(jac, wrench)  # (n, 6, dof)
     if method is Method.DPP:
-        if dof != 2 * N_ARM:
-            raise InputError(f"--method dpp splits 6 joints into arm and wrist; this robot "
-                             f"has {dof}: use --method cp")
-        missing = np.flatnonzero(np.isnan(b[:, 3:]).any(axis=1))
-        if missing.size:
-            raise InputError(
-                f"--method dpp needs the measured TCP rotation of every test (drx_mrad, "
-                f"dry_mrad, drz_mrad) to find the wrist-centre displacement; test "
-                f"{missing[0] + 1} has none: measure it or use --method cp")
         fit, cond = _dpp(jac, tau, a_full, b)
         present = np.ones((n, 6), dtype=bool)
     else:
@@ -428,20 +618,16 @@ def identify(robot: RobotModel, tests: LoadTests,
         bb = b[present]
         cond = _check_identifiable(a / _SIGMA0, list(range(dof)), tau)
         fit = _fit(a, bb, groups, n_groups, lambda w: _weighted_pinv(a, w))
-        w = 1.0 / np.where(np.isfinite(fit.sigma), fit.sigma, _SIGMA0)[groups]
+        w = 1.0 / _usable_sigma(fit.sigma)[groups]
         cond = _check_identifiable(a * w[:, None], list(range(dof)), tau)
     residual = np.full((n, 6), np.nan)
     residual[present] = b[present] - np.einsum("nij,j->ni", a_full, fit.x)[present]
     sigma = np.full(2, np.nan)
     sigma[: len(fit.sigma)] = fit.sigma
-    x = fit.x
-    se_x = np.sqrt(np.clip(np.diag(fit.cov), 0.0, None))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        k = 1.0 / x
-        se_k = se_x / x**2
-    warnings = _warnings(robot, q, tests.wrench, jac, b, present, fit, cond, k, se_k)
-    return StiffnessIdentification(method, k, se_k, x, fit.cov, residual, sigma, cond,
-                                   fit.dof, warnings)
+    k, se_k = _stiffness_and_se(fit)
+    warnings = _warnings(robot, q, wrench, jac, b, present, fit, cond)
+    return StiffnessIdentification(method, k, se_k, fit.x, fit.cov, residual, sigma, cond,
+                                   fit.dof, warnings, np.arange(n), np.full(2, np.nan), 0)
 
 
 def _dpp(jac: np.ndarray, tau: np.ndarray, a_full: np.ndarray,
@@ -478,20 +664,28 @@ def _dpp(jac: np.ndarray, tau: np.ndarray, a_full: np.ndarray,
         return np.vstack([m1, m2])
 
     fit = _fit(a, bb, groups, 2, estimator)
-    w = 1.0 / np.where(np.isfinite(fit.sigma), fit.sigma, _SIGMA0)[groups]
+    w = 1.0 / _usable_sigma(fit.sigma)[groups]
     cond2 = _check_identifiable(a[:, N_ARM:] * w[:, None], wrist, tau[:, N_ARM:])
     return fit, max(cond1, cond2)
 
 
+def _stiffness_and_se(fit: LinearFit) -> tuple[np.ndarray, np.ndarray]:
+    """``k = 1/x`` and its first-order standard error ``se_x / x^2`` (inf/NaN where x = 0)."""
+    se_x = np.sqrt(np.clip(np.diag(fit.cov), 0.0, None))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return 1.0 / fit.x, se_x / fit.x**2
+
+
 def _warnings(robot: RobotModel, q: np.ndarray, wrench: np.ndarray, jac: np.ndarray,
-              b: np.ndarray, present: np.ndarray, fit: LinearFit, cond: float, k: np.ndarray,
-              se_k: np.ndarray) -> tuple[IdentificationWarning, ...]:
+              b: np.ndarray, present: np.ndarray, fit: LinearFit,
+              cond: float) -> tuple[IdentificationWarning, ...]:
     out: list[IdentificationWarning] = []
+    k, se_k = _stiffness_and_se(fit)
     if fit.dof <= 0 or not np.all(np.isfinite(fit.sigma)):
         out.append(IdentificationWarning(WarningKind.NO_REDUNDANCY, float(fit.dof)))
     else:
         groups = np.tile(np.arange(6) >= 3, (len(q), 1)).astype(int)[present]
-        sig = np.maximum(fit.sigma, 1e-300)[groups]
+        sig = _usable_sigma(fit.sigma)[groups]
         snr = np.sqrt(np.mean((b[present] / sig) ** 2))
         bound = cond / snr
         if bound > ERROR_BOUND_WARN:

@@ -19,6 +19,7 @@ fixed-axis roll-pitch-yaw angles of the TCP frame in the flange frame.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,6 +28,7 @@ import pinocchio as pin
 
 from feedopt.errors import InputError
 from feedopt.robot.frames import transform_from_xyz_rpy
+from feedopt.textio import read_user_bytes
 from feedopt.units import MM
 from feedopt.yamlio import read_yaml
 
@@ -37,6 +39,15 @@ CONTROLLERS = ("kuka", "ur", "generic")
 #: robot.yaml gives joint stiffness in MN m/rad, speeds and accelerations in deg.
 _NM_PER_MNM = 1e6
 _RAD_PER_DEG = np.pi / 180.0
+#: Ranges a robot.yaml number must lie in (beyond them it is a typo or garbage, and its SI
+#: value or reciprocal overflows downstream): joint stiffness [MNm/rad] (a small cobot's
+#: ~0.01 to a large robot's ~10), speed [deg/s], acceleration [deg/s^2], TCP offset [mm]
+#: and angles [deg].
+STIFFNESS_RANGE_MNM = (1e-6, 1e6)
+VELOCITY_RANGE_DEG_S = (1e-3, 1e5)
+ACCELERATION_RANGE_DEG_S2 = (1e-3, 1e7)
+MAX_TCP_OFFSET_MM = 1e4
+MAX_TCP_ANGLE_DEG = 360.0
 
 
 @dataclass(frozen=True)
@@ -95,8 +106,18 @@ class RobotModel:
 # --------------------------------------------------------------------------- loading
 
 
-def _values(doc: dict, key: str, dof: int, scale: float, where: Path) -> tuple[np.ndarray, str]:
-    """Read ``key`` as ``{values: [...], source: ...}`` (or a bare list) scaled to SI."""
+def _in_range(arr: np.ndarray, bounds: tuple[float, float], what: str, unit: str) -> None:
+    """InputError naming ``what`` unless every value of ``arr`` lies in ``bounds``."""
+    lo, hi = bounds
+    if not np.all((arr >= lo) & (arr <= hi)):
+        raise InputError(f"{what}: every value must be between {lo:g} and {hi:g} {unit}, got "
+                         f"{arr.tolist()}")
+
+
+def _values(doc: dict, key: str, dof: int, scale: float, where: Path,
+            bounds: tuple[float, float], unit: str) -> tuple[np.ndarray, str]:
+    """Read ``key`` as ``{values: [...], source: ...}`` (or a bare list) within ``bounds``,
+    scaled to SI."""
     if key not in doc:
         raise InputError(f"{where}: missing field '{key}' ({dof} values with a 'source:' line)")
     entry = doc[key]
@@ -107,6 +128,7 @@ def _values(doc: dict, key: str, dof: int, scale: float, where: Path) -> tuple[n
     arr = _as_vector(entry, dof, f"{where}: {key}")
     if np.any(arr <= 0):
         raise InputError(f"{where}: {key} must be positive, got {arr.tolist()}")
+    _in_range(arr, bounds, f"{where}: {key}", unit)
     return arr * scale, source
 
 
@@ -124,13 +146,16 @@ def _tool_transform(tool: dict, where: Path) -> np.ndarray:
     """Flange -> TCP transform (4, 4) [m] from ``tool.tcp_xyz_mm`` and ``tool.tcp_rpy_deg``."""
     xyz = _as_vector(tool.get("tcp_xyz_mm", [0, 0, 0]), 3, f"{where}: tool.tcp_xyz_mm") * MM
     rpy = _as_vector(tool.get("tcp_rpy_deg", [0, 0, 0]), 3, f"{where}: tool.tcp_rpy_deg")
+    _in_range(xyz / MM, (-MAX_TCP_OFFSET_MM, MAX_TCP_OFFSET_MM), f"{where}: tool.tcp_xyz_mm",
+              "mm")
+    _in_range(rpy, (-MAX_TCP_ANGLE_DEG, MAX_TCP_ANGLE_DEG), f"{where}: tool.tcp_rpy_deg", "deg")
     return transform_from_xyz_rpy(xyz, rpy)
 
 
 def _read_robot_yaml(directory: Path) -> tuple[dict, Path]:
     """``robot.yaml`` of ``directory`` as a mapping, and its path."""
     yaml_path = directory / "robot.yaml"
-    if not yaml_path.is_file():
+    if not os.path.lexists(yaml_path):  # a FIFO, a loop, a folder: the reader says which
         raise InputError(f"{directory}: no robot.yaml found (a robot directory needs one)")
     doc = read_yaml(yaml_path, "robot file") or {}
     if not isinstance(doc, dict):
@@ -142,9 +167,17 @@ def _read_kinematics(doc: dict, directory: Path, yaml_path: Path) -> tuple[pin.M
     """The pinocchio model of the URDF that ``robot.yaml`` names, and its path."""
     if "urdf" not in doc:
         raise InputError(f"{yaml_path}: missing field 'urdf' (file name of the URDF)")
-    urdf_path = directory / str(doc["urdf"])
-    if not urdf_path.is_file():
+    urdf = doc["urdf"]
+    if not isinstance(urdf, str) or not urdf.strip():
+        raise InputError(f"{yaml_path}: urdf must be the file name of the URDF, got {urdf!r}")
+    urdf_path = directory / urdf
+    try:
+        found = urdf_path.is_file()
+    except OSError as exc:  # e.g. a name too long for the file system
+        raise InputError(f"{yaml_path}: urdf {urdf!r}: {exc.strerror or exc}") from None
+    if not found and not os.path.lexists(urdf_path):
         raise InputError(f"{yaml_path}: urdf file '{urdf_path}' does not exist")
+    read_user_bytes(urdf_path, "URDF")  # a FIFO, device, loop or oversized file: its message
     try:
         model = pin.buildModelFromUrdf(str(urdf_path))
     except (RuntimeError, ValueError) as exc:
@@ -206,6 +239,8 @@ def _read_stiffness(doc: dict, dof: int, yaml_path: Path) -> tuple[dict[str, np.
         arr = _as_vector(val, dof, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}")
         if np.any(arr <= 0):
             raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad.{key} must be > 0")
+        _in_range(arr, STIFFNESS_RANGE_MNM, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}",
+                  "MNm/rad")
         stiffness[str(key)] = arr * _NM_PER_MNM
     if not stiffness:
         raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad has no stiffness set")
@@ -255,9 +290,10 @@ def load_robot(directory: str | Path) -> RobotModel:
     tcp_frame_id, tcp_offset, sources["tool"] = _add_tcp_frame(model, doc, yaml_path, urdf_path)
     stiffness, sources["stiffness"] = _read_stiffness(doc, dof, yaml_path)
     vel, sources["joint_velocity"] = _values(doc, "joint_velocity_deg_s", dof, _RAD_PER_DEG,
-                                             yaml_path)
+                                             yaml_path, VELOCITY_RANGE_DEG_S, "deg/s")
     acc, sources["joint_acceleration"] = _values(doc, "joint_acceleration_deg_s2", dof,
-                                                 _RAD_PER_DEG, yaml_path)
+                                                 _RAD_PER_DEG, yaml_path,
+                                                 ACCELERATION_RANGE_DEG_S2, "deg/s^2")
     q_lower, q_upper = _read_position_limits(model, urdf_path)
     controller, data_warnings = _read_controller_and_warnings(doc, yaml_path)
     return RobotModel(

@@ -14,6 +14,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 import yaml
+from hypothesis import event, given
+from hypothesis import strategies as st
 
 from feedopt.errors import InputError
 from feedopt.robot.identification import (
@@ -28,10 +30,12 @@ from feedopt.robot.identification import (
     linear_fit,
     load_wrenches,
     point_offset_terms,
+    repeat_groups,
     suggest_poses,
 )
 from feedopt.robot.model import forward_kinematics, load_robot, tcp_jacobians
 from feedopt.robot.stiffness import compliance
+from tests.properties._support import budget
 from tests.robot.helpers import KUKA_DIR, TABLE_A3_DEG
 
 #: Thesis Table 3.4 [N m/rad].
@@ -349,3 +353,158 @@ def test_point_offset_from_a_second_tcp(kuka, tmp_path):
                            np.linalg.norm(measured[:1], axis=1), bounds=(-span, span))
     found = sorted([one.value, *one.alternatives])
     np.testing.assert_allclose(found, sorted([0.12, mirror]), atol=1e-7)
+
+
+# --------------------------------------------------------------------------- repeats (issue 26)
+
+
+def _means(groups: np.ndarray, *arrays: np.ndarray) -> list[np.ndarray]:
+    """Per-group means, by a plain loop (independent of the library's np.add.at)."""
+    return [np.array([a[groups == g].mean(axis=0) for g in range(groups.max() + 1)])
+            for a in arrays]
+
+
+def test_repeats_are_averaged_into_the_distinct_tests(kuka, a3):
+    """Four noisy repeats of each Table A.3 test (load cell readings within 0.3 %, poses within
+    0.002 deg) give exactly the fit of the 30 averaged tests: same stiffness, standard errors,
+    noise and residual degrees of freedom (30 x 6 - 6, not 120 x 6 - 6); the scatter of the
+    repeats is the repeat noise."""
+    q, w, motion = a3
+    d, r = motion["dpp"]
+    rng = np.random.default_rng(21)
+    reps = 4
+    qr = np.repeat(q, reps, axis=0) + rng.uniform(-1, 1, (120, 6)) * np.deg2rad(0.002)
+    wr = np.repeat(w, reps, axis=0) * (1 + rng.uniform(-0.003, 0.003, (120, 1)))
+    dr, rr = fk_motion(kuka, qr, wr, DPP)
+    sd_t, sd_r = 0.01e-3, 0.005e-3
+    dr, rr = dr + rng.normal(0, sd_t, dr.shape), rr + rng.normal(0, sd_r, rr.shape)
+    order = rng.permutation(120)  # repeats need not be next to each other
+    tests = LoadTests(qr[order], wr[order], dr[order], rr[order])
+    groups = np.repeat(np.arange(30), reps)[order]
+    for method in ("cp", "dpp"):
+        res = identify(kuka, tests, method)
+        first = np.unique(groups, return_index=True)[1]  # numbered by first appearance
+        relabel = np.argsort(np.argsort(first))
+        np.testing.assert_array_equal(res.test_group, relabel[groups])
+        assert res.n_distinct == 30 and res.dof_residual == 30 * 6 - 6
+        alone = identify(kuka, LoadTests(*_means(groups, qr[order], wr[order], dr[order],
+                                                 rr[order])), method)
+        np.testing.assert_allclose(res.stiffness, alone.stiffness, rtol=1e-9)
+        np.testing.assert_allclose(res.stiffness_se, alone.stiffness_se, rtol=1e-6)
+        np.testing.assert_allclose(res.sigma, alone.sigma, rtol=1e-6)
+        np.testing.assert_allclose(res.stiffness, DPP, rtol=0, atol=5 * res.stiffness_se.max())
+        assert res.repeatability_dof == 3 * 30 * (reps - 1)
+        np.testing.assert_allclose(res.repeatability, [sd_t, sd_r], rtol=0.15)
+        assert res.residual.shape == (120, 6) and np.all(np.isfinite(res.residual))
+        assert not [x for x in res.warnings if x.kind is WarningKind.EXACT_COPIES]
+
+
+def test_exact_copies_count_once_and_are_named(kuka, a3):
+    """Copies of tests change nothing but the warning: the stiffness and standard errors of
+    the distinct tests alone; 30 copies of one test leave no residual, so no standard error
+    (not 1e-15) and no noise estimate."""
+    q, w, motion = a3
+    d, r = motion["dpp"]
+    noisy = d + np.random.default_rng(3).normal(0, 1e-5, d.shape)
+    alone = identify(kuka, LoadTests(q, w, noisy, r), "cp")
+    idx = np.r_[np.arange(30), 4, 4, 17]
+    res = identify(kuka, LoadTests(q[idx], w[idx], noisy[idx], r[idx]), "cp")
+    np.testing.assert_allclose(res.stiffness, alone.stiffness, rtol=1e-12)
+    np.testing.assert_allclose(res.stiffness_se, alone.stiffness_se, rtol=1e-6)
+    assert res.dof_residual == alone.dof_residual == 174
+    (copies,) = [x for x in res.warnings if x.kind is WarningKind.EXACT_COPIES]
+    assert copies.tests == (30, 31, 32) and "look like copies" in copies.text()
+    assert np.array_equal(res.repeatability, [0.0, 0.0])
+    one = identify(kuka, LoadTests(*(np.repeat(a[:1], 30, axis=0) for a in (q, w, noisy, r))),
+                   "cp")
+    assert one.n_distinct == 1 and one.dof_residual == 0
+    assert np.isnan(one.stiffness_se).all() and np.isnan(one.sigma).all()
+    kinds = [x.kind for x in one.warnings]
+    assert WarningKind.NO_REDUNDANCY in kinds and WarningKind.EXACT_COPIES in kinds
+    assert "repeats of a test count once" in one.warnings[0].text()
+
+
+def test_standard_errors_hold_when_repeats_cannot_average_the_error_out(kuka, a3):
+    """Monte Carlo: each distinct test carries a systematic error (setup, model) that its
+    repeats share, plus repeat noise. The stated standard errors (from the residuals of the
+    means) match the spread of the estimates; counting the 4 repeats as independent tests
+    (the fit of all rows, as before issue 26) understates them by about half."""
+    q, w, motion = a3
+    d, r = motion["dpp"]
+    reps, sys_t, sys_r, rep_t, rep_r = 4, 0.01e-3, 0.005e-3, 0.004e-3, 0.002e-3
+    rng = np.random.default_rng(5)
+    a = identification_matrix(tcp_jacobians(kuka, np.repeat(q, reps, axis=0)),
+                              np.repeat(w, reps, axis=0)).reshape(-1, 6)
+    groups = np.tile(np.arange(6) >= 3, 30 * reps).astype(int)
+    ks, ses, naive = [], [], []
+    for _ in range(100):
+        dt = np.repeat(d + rng.normal(0, sys_t, d.shape), reps, axis=0)
+        rt = np.repeat(r + rng.normal(0, sys_r, r.shape), reps, axis=0)
+        dt, rt = dt + rng.normal(0, rep_t, dt.shape), rt + rng.normal(0, rep_r, rt.shape)
+        res = identify(kuka, LoadTests(np.repeat(q, reps, axis=0), np.repeat(w, reps, axis=0),
+                                       dt, rt), "cp")
+        ks.append(res.stiffness)
+        ses.append(res.stiffness_se)
+        fit = linear_fit(a, np.hstack([dt, rt]).ravel(), groups)
+        naive.append(np.sqrt(np.diag(fit.cov)) * res.stiffness**2)
+    ks, ses, naive = np.array(ks), np.array(ses), np.array(naive)
+    ratio = ks.std(axis=0) / ses.mean(axis=0)
+    assert np.all((ratio > 0.7) & (ratio < 1.35)), ratio
+    assert 0.85 < ratio.mean() < 1.15, ratio
+    assert np.all(ks.std(axis=0) / naive.mean(axis=0) > 1.5)  # rows as independent: too small
+
+
+def test_repeat_groups_tolerances():
+    """Same pose within 0.01 deg and load within 2 % of the larger: one test; beyond, or one
+    measuring rotations and the other not: two."""
+    q = np.zeros((7, 6))
+    q[1, 2] = np.deg2rad(0.009)
+    q[2, 2] = np.deg2rad(0.011)
+    w = np.tile([1000.0, 0, 0, 0, 200.0, 0], (7, 1))
+    w[3, 0] = 1015.0  # 1.5 % of the load: a repeat
+    w[4, 0] = 1030.0  # 3 %: another load
+    w[5, 4] = 230.0  # moment 30 N m (at 1 m) of a 1020 N m-scale wrench: 2.9 %: another test
+    rot = np.array([True] * 6 + [False])
+    np.testing.assert_array_equal(repeat_groups(q, w, rot), [0, 0, 1, 0, 2, 3, 4])
+
+
+@budget(40)
+@given(data=st.data(), method=st.sampled_from(["cp", "dpp"]))
+def test_odd_measurements_never_raise_linalg_errors(kuka, a3, data, method):
+    """Zeros, subnormals, 1e308, repeats of few tests, sign flips: identify returns or refuses
+    with an InputError; never a LinAlgError or another exception."""
+    q, w, motion = a3
+    n = data.draw(st.integers(1, 6))
+    rows = np.array(data.draw(st.lists(st.integers(0, 29), min_size=n, max_size=n)))
+    value = st.sampled_from([0.0, -0.0, 5e-324, 1e-300, 1e-9, 1e-3, -1e-3, 0.05, 0.2, 1e308])
+    scale = np.array(data.draw(st.lists(value, min_size=6, max_size=6)))
+    d, r = motion["dpp"]
+    reps = data.draw(st.integers(1, 30))
+    idx = np.repeat(rows, reps)
+    tests = LoadTests(q[idx], w[idx], d[idx] / np.abs(d[idx]).max() * scale[:3],
+                      r[idx] / np.abs(r[idx]).max() * scale[3:])
+    try:
+        res = identify(kuka, tests, method)
+    except InputError as exc:
+        assert str(exc).strip()
+        event("refused")
+        return
+    event("identified")
+    assert np.all(np.isfinite(res.compliance))
+    assert np.all(np.isnan(res.stiffness_se) | (res.stiffness_se >= 0))
+
+
+@pytest.mark.parametrize(("edit", "message"), [
+    (lambda d, r: (d * 0, r), "the measurements show no deflection"),
+    (lambda d, r: (d * 0 + 1e-300, r), "show no deflection"),
+    (lambda d, r: (d, r * 0), "every measured rotation is 0"),
+    (lambda d, r: (d * 1e308 / np.abs(d).max(), r), "beyond the 0.1 m"),
+    (lambda d, r: (d, r * 1e5), "beyond the 0.1 rad"),
+])
+def test_no_deflection_and_absurd_values_are_refused(kuka, a3, edit, message):
+    q, w, motion = a3
+    d, r = edit(*motion["dpp"])
+    with pytest.raises(InputError, match=message):
+        identify(kuka, LoadTests(q, w, d, r), "cp")
+    with pytest.raises(InputError, match="beyond the 100000 N"):
+        identify(kuka, LoadTests(q, w * 1e3, *motion["dpp"]), "cp")
