@@ -8,6 +8,9 @@ import sys
 
 from feedopt.errors import InputError, Terminated
 
+#: Exit code of a sweep stopped because its Dask scheduler (or every worker) was lost.
+CLUSTER_LOST_EXIT = 3
+
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
@@ -37,8 +40,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="a running Dask scheduler (tcp://host:8786); default: a local cluster")
     p.add_argument("--workers", type=int, metavar="N",
-                   help="worker processes of the local cluster (default: one per core; 0: "
-                   "evaluate in this process without Dask)")
+                   help="worker processes of the local cluster (default and most: one per "
+                   "usable core, and one per point; 0: evaluate in this process without Dask)")
     p.add_argument("--spacing-mm", "--spacing", dest="spacing_mm", type=float, metavar="MM",
                    help="override the path sample spacing (mm)")
     p.add_argument("--laws", help="comma-separated laws run at every point (default: the "
@@ -58,12 +61,40 @@ def _fmt(value: str) -> str:
         return value or "-"
 
 
+def _stopped(exc) -> int:
+    """Report a stopped sweep; its exit code: 128 + N for signal N, 3 for a lost cluster."""
+    from feedopt.sweep.execute import ClusterLost
+
+    cause = exc.cause
+    keeps = (f"{exc.out / 'sweep.csv'} keeps {exc.finished} of {exc.total} points: run the "
+             "same command again to resume")
+    if isinstance(cause, ClusterLost):
+        print(f"feedopt sweep: stopped ({cause}); {keeps} (with --scheduler: once a scheduler "
+              "and workers run again, at the new address if it changed)", file=sys.stderr)
+        return CLUSTER_LOST_EXIT
+    name = cause.signal_name if isinstance(cause, Terminated) else "SIGINT"
+    print(f"feedopt sweep: stopped ({name}); {keeps}", file=sys.stderr)
+    return 128 + (cause.signal_number if isinstance(cause, Terminated) else signal.SIGINT)
+
+
+def _note_workers(workers: int | None, scheduler: str | None) -> None:
+    """Say so when --workers asks for more processes than there are usable cores."""
+    from feedopt.sweep.execute import usable_cores
+
+    if workers and scheduler is None and workers > usable_cores():
+        print(f"feedopt sweep: --workers {workers}: this process may use {usable_cores()} "
+              f"core(s); starting at most {usable_cores()} worker process(es) (each point runs "
+              "on one core: more would only share the cores)", file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     from feedopt.commands.run import parse_laws
     from feedopt.sweep import SweepInterrupted, run_sweep
 
     if args.spacing_mm is not None and not args.spacing_mm > 0:
         raise InputError(f"--spacing-mm must be positive, got {args.spacing_mm}")
+    if args.workers is not None and args.workers >= 0:
+        _note_workers(args.workers, args.scheduler)
     try:
         result = run_sweep(args.scenario, args.grid, out_dir=args.out,
                            laws=parse_laws(args.laws), objective=args.objective,
@@ -71,13 +102,7 @@ def run(args: argparse.Namespace) -> int:
                            workers=args.workers, restart=args.restart,
                            progress=False if args.no_progress else None)
     except SweepInterrupted as exc:
-        cause = exc.cause
-        name = cause.signal_name if isinstance(cause, Terminated) else "SIGINT"
-        print(f"feedopt sweep: stopped ({name}); {exc.out / 'sweep.csv'} keeps "
-              f"{exc.finished} of {exc.total} points: run the same command again to resume",
-              file=sys.stderr)
-        return 128 + (cause.signal_number if isinstance(cause, Terminated)
-                      else signal.SIGINT)
+        return _stopped(exc)
     c = result.counts
     print(f"{result.grid.size} points ({result.evaluated} evaluated now, {result.reused} from "
           f"the earlier table): {c['ok']} planned ({c['feasible']} feasible), {c['refused']} "

@@ -5,6 +5,7 @@
 - :mod:`~feedopt.sweep.point`: one point = ``prepare`` + ``plan_and_verify``, as typed numbers
 - :mod:`~feedopt.sweep.execute`: this process, a local Dask cluster or a running one
 - :mod:`~feedopt.sweep.table`: the CSV table, appended as points finish, read to resume
+- :mod:`~feedopt.sweep.rowcheck`: every row read back checked as feedopt writes it
 - :mod:`~feedopt.sweep.folder`: the output folder (outdir's rules, plus resuming)
 - :mod:`~feedopt.sweep.objective`, :mod:`~feedopt.sweep.plots`: best point, heat maps
 - :mod:`~feedopt.sweep.run`: :func:`run_sweep`, which ties them together

@@ -30,6 +30,7 @@ from pydantic import ValidationError
 from feedopt.errors import InputError
 from feedopt.scenario import Scenario, format_validation_error, load_scenario, resolve
 from feedopt.sweep.grid import Axis, Number, apply_point
+from feedopt.textio import read_user_bytes
 from feedopt.yamlio import read_yaml_mapping
 
 #: Largest total size of the files a sweep ships to each worker.
@@ -78,10 +79,8 @@ class Bundle:
 
 
 def _read(path: Path, what: str) -> bytes:
-    try:
-        return path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{what} {path}: cannot read it ({exc.strerror})") from None
+    """The bytes of one input file, through the capped reader (no FIFO, no device, bounded)."""
+    return read_user_bytes(path, what)
 
 
 def build_bundle(scenario_path: str | Path) -> tuple[Bundle, Scenario]:

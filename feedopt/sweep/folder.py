@@ -69,14 +69,14 @@ def _is_temporary_of(name: str, files: Sequence[str]) -> bool:
 
 
 def check_folder(out: Path, protected: Sequence[Path], spec: dict, files: Sequence[str],
-                 restart: bool) -> FolderPlan:
+                 restart: bool, inputs: Sequence[Path] = ()) -> FolderPlan:
     """Decide what the sweep may do to ``out``; InputError when it must not touch it.
 
     Writes nothing. ``spec`` is this sweep's sweep.json (its :data:`COMPATIBLE` entries
     decide whether a previous sweep's table can be resumed); ``files`` every file name the
-    sweep may write.
+    sweep may write; ``inputs`` the files the scenario reads (never inside ``out``).
     """
-    kind = outdir.check_destination(out, protected, overwrite=True)
+    kind = outdir.check_destination(out, protected, overwrite=True, inputs=inputs)
     target = out.resolve()
     files = [*files, outdir.MARKER]
     if kind in (outdir.DestinationKind.NEW, outdir.DestinationKind.EMPTY):
@@ -153,4 +153,5 @@ def open_folder(plan: FolderPlan, spec: dict) -> OpenFolder:
 
 def write_spec(folder: Path, spec: dict) -> None:
     """Write sweep.json (atomic)."""
-    write_atomically(folder / SPEC, json.dumps(spec, indent=1, default=float) + "\n")
+    text = json.dumps(spec, indent=1, default=float, allow_nan=False)
+    write_atomically(folder / SPEC, text + "\n")

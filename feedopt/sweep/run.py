@@ -19,13 +19,15 @@ from pathlib import Path
 from feedopt import __version__
 from feedopt.errors import InputError, Terminated
 from feedopt.outfile import write_atomically
+from feedopt.scenario import scenario_input_files
 from feedopt.sweep.bundle import build_bundle, check_axes
-from feedopt.sweep.execute import evaluator
+from feedopt.sweep.execute import ClusterLost, evaluator
 from feedopt.sweep.folder import BEST, SPEC, TABLE, check_folder, open_folder, write_spec
 from feedopt.sweep.grid import Grid, parse_grid, point_key
 from feedopt.sweep.objective import Objective, best, parse_objective
 from feedopt.sweep.plots import objective_array, plot_names, write_plots
-from feedopt.sweep.point import Metric, PointSettings, Status
+from feedopt.sweep.point import Metric, PointResult, PointSettings, Status, error_result
+from feedopt.sweep.rowcheck import BadRow, check_row
 from feedopt.sweep.table import Appender, Row, columns, done, read_table, to_row, write_table
 
 
@@ -46,11 +48,36 @@ class SweepResult:
 
 
 class SweepInterrupted(BaseException):  # noqa: N818 - wraps KeyboardInterrupt / Terminated
-    """The sweep was stopped; its table keeps every finished point for a resume."""
+    """The sweep was stopped (a signal, or its Dask cluster was lost:
+    :class:`~feedopt.sweep.execute.ClusterLost`); its table keeps every finished point for a
+    resume."""
 
     def __init__(self, cause: BaseException, out: Path, finished: int, total: int) -> None:
         super().__init__(str(cause))
         self.cause, self.out, self.finished, self.total = cause, out, finished, total
+
+
+def _table_row(result: PointResult, axes, laws: Sequence[str], extra: Sequence[str]) -> Row:
+    """The row of ``result``; an ``error`` row if it holds a number a resumed sweep would
+    refuse (a non-finite T*, ...), so the table never holds a row it cannot read back."""
+    row = to_row(result, axes, laws, extra)
+    try:
+        check_row(row, axes, laws, extra)
+    except BadRow as exc:
+        row = to_row(error_result(result.values, ValueError(f"unexpected result: {exc}"),
+                                  result.seconds), axes, laws, extra)
+    return row
+
+
+def _kept(table: Path, header: list[str], grid: Grid, laws: Sequence[str],
+          extra: Sequence[str]) -> int | None:
+    """Points of ``grid`` the table of a stopped sweep holds finished, as the next run will
+    count them (a signal may land between a row's write and its count); None if unreadable."""
+    try:
+        finished = done(read_table(table, header, grid.axes, laws, extra))
+    except Exception:  # noqa: BLE001 - then the count kept while running is said
+        return None
+    return sum(point_key(p) in finished for p in grid.points())
 
 
 def _point_dict(grid: Grid, row: Row) -> dict[str, float]:
@@ -102,7 +129,8 @@ def run_sweep(
     InputError
         Bad input of any kind, before anything is written.
     SweepInterrupted
-        Ctrl-C, SIGTERM or SIGHUP while points were evaluated (the table keeps them).
+        Ctrl-C, SIGTERM or SIGHUP while points were evaluated, or the Dask cluster was lost
+        (:class:`~feedopt.sweep.execute.ClusterLost`); the table keeps the finished points.
     """
     from tqdm import tqdm
 
@@ -128,15 +156,18 @@ def run_sweep(
             "objective": goal.name}
     out = Path(out_dir) if out_dir else Path("out") / f"{scenario.name}_sweep"
     plots = plot_names(grid)
-    plan = check_folder(out, [Path.cwd(), Path(scenario_path).resolve().parent], spec,
-                        [TABLE, SPEC, BEST] + [name for name, _ in plots], restart)
-    rows = {} if plan.fresh else read_table(plan.out / TABLE, header, grid.axes)
+    base_dir = Path(scenario_path).resolve().parent
+    plan = check_folder(out, [Path.cwd(), base_dir], spec,
+                        [TABLE, SPEC, BEST] + [name for name, _ in plots], restart,
+                        inputs=scenario_input_files(scenario, base_dir))
+    rows = {} if plan.fresh else read_table(plan.out / TABLE, header, grid.axes, laws,
+                                            extra_names)
     finished = done(rows)
     todo = [p for p in grid.points() if point_key(p) not in finished]
     settings = PointSettings(tuple(laws), spacing_mm, tuple(extra))
     show = sys.stderr.isatty() if progress is None else progress
 
-    context = (evaluator(bundle, grid.axes, settings, scheduler, workers) if todo
+    context = (evaluator(bundle, grid.axes, settings, scheduler, workers, len(todo)) if todo
                else contextlib.nullcontext(None))
     folder = None
     count = 0
@@ -148,7 +179,7 @@ def run_sweep(
                 with tqdm(total=len(todo), disable=not show, unit="point", desc="sweep",
                           file=sys.stderr) as bar:
                     for result in (evaluate(todo) if todo else ()):
-                        row = to_row(result, grid.axes, laws, extra_names)
+                        row = _table_row(result, grid.axes, laws, extra_names)
                         appender.append(row)
                         rows[point_key(result.values)] = row
                         count += 1
@@ -156,11 +187,16 @@ def run_sweep(
             finally:
                 appender.close()
         return _finish(plan.out, grid, rows, header, goal, spec, count, grid.size - len(todo))
-    except (KeyboardInterrupt, Terminated) as exc:
+    except (KeyboardInterrupt, Terminated, ClusterLost) as exc:
+        if folder is None and isinstance(exc, ClusterLost):
+            raise InputError(f"{exc} before any point was evaluated; nothing was written: "
+                             "run the same command again once the scheduler and its workers "
+                             "run") from None
         if folder is None:  # stopped before anything was written
             raise
-        raise SweepInterrupted(exc, plan.out, grid.size - len(todo) + count,
-                               grid.size) from exc
+        kept = _kept(plan.out / TABLE, header, grid, laws, extra_names)
+        raise SweepInterrupted(exc, plan.out, grid.size - len(todo) + count if kept is None
+                               else kept, grid.size) from exc
     finally:
         if folder is not None:
             folder.close()
@@ -182,7 +218,7 @@ def _finish(out: Path, grid: Grid, rows: dict, header: list[str], goal: Objectiv
                "best_value": None if found is None else found[1]}
     best_doc = {"objective": goal.name, "label": goal.label, "value": summary["best_value"],
                 "point": summary["best"], "row": None if found is None else found[0]}
-    write_atomically(out / BEST, json.dumps(best_doc, indent=1) + "\n")
+    write_atomically(out / BEST, json.dumps(best_doc, indent=1, allow_nan=False) + "\n")
     best_index = None
     if found is not None:
         best_index = tuple(a.values.index(_as_value(a, found[0][a.name])) for a in grid.axes)

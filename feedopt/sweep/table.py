@@ -25,6 +25,7 @@ from feedopt.errors import InputError
 from feedopt.outfile import write_atomically
 from feedopt.sweep.grid import Axis, point_key
 from feedopt.sweep.point import PointResult, Status
+from feedopt.sweep.rowcheck import checked_row
 
 LAW_FIELDS = ("cycle_time_s", "verdict", "max_deflection_mm")
 POINT_FIELDS = ("status", "feasible", "reason", "t_star_s", "max_deflection_nominal_mm",
@@ -112,17 +113,20 @@ class Appender:
         self._file.close()
 
 
-def read_table(path: Path, header: Sequence[str], axes: Sequence[Axis]
+def read_table(path: Path, header: Sequence[str], axes: Sequence[Axis],
+               laws: Sequence[str] = (), extra: Sequence[str] = ()
                ) -> dict[tuple[float, ...], Row]:
     """The rows of an earlier (possibly interrupted) sweep, the last row of each point.
 
     A torn last line (no line end: the sweep was killed while writing it) is ignored; the
-    :class:`Appender` cuts it off before appending.
+    :class:`Appender` cuts it off before appending. Every other row is checked as feedopt
+    writes it (:mod:`feedopt.sweep.rowcheck`).
 
     Raises
     ------
     InputError
-        The table has other columns than this sweep's, or a malformed row that is not the last.
+        The table has other columns than this sweep's, or a row feedopt could not have
+        written (named by its line number).
     """
     try:
         text = path.read_text(encoding="utf-8")
@@ -144,12 +148,9 @@ def read_table(path: Path, header: Sequence[str], axes: Sequence[Axis]
         if len(cells) != len(header):
             raise InputError(f"{path}: row {number} has {len(cells)} cells, not "
                              f"{len(header)}; remove that row or start over with --restart")
-        row = dict(zip(header, cells, strict=True))
-        try:
-            out[row_key(row, axes)] = row
-        except ValueError:
-            raise InputError(f"{path}: row {number} has no number in a swept column; remove "
-                             "that row or start over with --restart") from None
+        row = checked_row(path, number, dict(zip(header, cells, strict=True)), axes, laws,
+                          extra)
+        out[row_key(row, axes)] = row
     return out
 
 
