@@ -22,9 +22,12 @@ def add_parser(subparsers) -> None:
             "IPOC: the trajectory's pose minus the pose at RSI_ON (absolute mode) or this "
             "cycle's increment (relative). The first cycles check that the controller runs the "
             "trajectory's cycle and that the robot (RIst) is at its start pose. Late and "
-            "missing packets are counted; on --late-limit, Ctrl-C or the end of the trajectory "
-            "the motion slows to a stop along the path and holds, then <Stop>1</Stop> ends "
-            "RSI_MOVECORR(). No answer moves the correction by more than --max-step-mm / "
+            "missing packets are counted; after a gap (the controller held its correction) the "
+            "motion resumes from where the robot stands, along the path; on --late-limit, "
+            "Ctrl-C, a restarted controller (its IPOC goes back) or the end of the trajectory "
+            "the motion slows to a stop along the path (or, after a gap, is held where it "
+            "stands), then <Stop>1</Stop> ends RSI_MOVECORR(). No answer moves the correction "
+            "by more than --max-step-mm / "
             "--max-step-deg from the one the controller holds. With --pid the thesis's PID "
             "(Eq. 3.27, Kp 0.05, Ki 0.3 Cartesian, Ki 0.02 angular) adds the error between the "
             "pose asked for and the measured one (RIst, or a tracker with --tracker-listen). "
@@ -49,6 +52,10 @@ def add_parser(subparsers) -> None:
     p.add_argument("--max-step-deg", type=float, default=0.1, metavar="DEG",
                    help="largest change of each angle correction between two answers "
                    "(default 0.1 deg)")
+    p.add_argument("--controller", metavar="HOST[:PORT]",
+                   help="the controller's address (its RSI network card); packets from any "
+                   "other sender are counted and ignored (default: the sender of the first "
+                   "valid RSI packet)")
     p.add_argument("--log", metavar="CSV", help="write one row per controller cycle here")
     p.add_argument("--pid", action="store_true",
                    help="close the loop with the thesis's PID (Eq. 3.26-3.27) on the measured "
@@ -96,6 +103,7 @@ def _settings(args: argparse.Namespace, cycle_s: float):
     tracker = (None if args.tracker_listen is None
                else parse_address(args.tracker_listen, "--tracker-listen"))
     return StreamSettings(
+        controller=_controller(args.controller),
         listen=parse_address(args.listen, "--listen"), mode=CorrectionMode(args.mode),
         late_limit=args.late_limit, max_step_mm=args.max_step_mm,
         max_step_deg=args.max_step_deg, wait_s=args.wait_s,
@@ -104,6 +112,26 @@ def _settings(args: argparse.Namespace, cycle_s: float):
         measurement=Measurement.TRACKER if tracker else Measurement.RIST,
         tracker_listen=tracker, pid_limit_mm=args.pid_limit_mm,
         pid_limit_deg=args.pid_limit_deg)
+
+
+def _controller(text: str | None) -> tuple[str, int | None] | None:
+    """``--controller HOST[:PORT]`` as (IP, port or None)."""
+    from feedopt.rsi.protocol import parse_address
+    from feedopt.rsi.streamer import resolve_controller
+
+    if text is None:
+        return None
+    text = text.strip()
+    host, sep, port_text = text.rpartition(":")
+    if sep and host and (host.endswith("]") or ":" not in host):
+        host, port = parse_address(text, "--controller")
+        if port == 0:
+            raise InputError(f"--controller {text}: port 0 is no sender's port; give the "
+                             "controller's port or leave it out (any port of that host)")
+        return resolve_controller(host, port)
+    if not text:
+        raise InputError("--controller: give the controller's HOST or HOST:PORT")
+    return resolve_controller(text.strip("[]"), None)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -192,21 +220,44 @@ def _print_report(report, args) -> None:
     from feedopt.rsi.streamer import StreamStatus
 
     r = report
+    foreign = (f", from other senders {r.foreign} ({', '.join(r.foreign_senders)})"
+               if r.foreign else "")
     print(f"stream {r.status.value}: {r.rows_sent}/{r.rows_total} rows, {r.answered} packets "
           f"answered from {r.controller[0]}:{r.controller[1]}; late {r.late}, missing "
           f"{r.missing}, late by the controller's count {r.controller_late}, not RSI "
-          f"{r.bad_packets}; slowest answer {r.max_response_ms:.3f} ms; largest step "
+          f"{r.bad_packets}{foreign}; slowest answer {r.max_response_ms:.3f} ms; largest step "
           f"{r.max_step_mm:.6f} mm / {r.max_step_deg:.6f} deg"
           + (f"; largest PID correction {r.max_pid_mm:.4f} mm" if args.pid else ""))
     for note in r.notes:
         print(f"note: {note}")
-    if r.status is StreamStatus.LATE_LIMIT:
-        print(f"feedopt stream: stopped at the late-packet limit ({args.late_limit}): the "
-              "motion slowed to a stop along the path and was held", file=sys.stderr)
-    elif r.status is StreamStatus.CONTROLLER_SILENT:
-        print("feedopt stream: the controller stopped sending before the end of the "
-              "trajectory (RSI stopped on its side: see its message window)", file=sys.stderr)
-    elif r.status is StreamStatus.INTERRUPTED:
-        print(f"feedopt stream: interrupted ({r.signal_name}); the motion slowed to a stop "
-              "along the path and was held" + (f"; log written to {args.log}" if args.log
-                                                 else ""), file=sys.stderr)
+    if r.status is StreamStatus.COMPLETED:
+        return
+    why = {
+        StreamStatus.LATE_LIMIT: f"stopped at the late-packet limit ({args.late_limit})",
+        StreamStatus.CONTROLLER_GAP: (
+            f"the controller's IPOC jumped {r.largest_gap} cycles (a pause or lost packets; "
+            f"--late-limit {args.late_limit})"),
+        StreamStatus.RESTARTED: (
+            "the controller's IPOC went back"
+            + ("" if r.restart is None else f" from {r.restart[0]} to {r.restart[1]}")
+            + " (its RSI context or the controller restarted)"),
+        StreamStatus.INTERRUPTED: f"interrupted ({r.signal_name})",
+        StreamStatus.CONTROLLER_SILENT: (
+            "the controller stopped sending before the end of the trajectory (RSI stopped "
+            "on its side: see its message window)"),
+    }[r.status]
+    print(f"feedopt stream: {why}{_how_stopped(r)}"
+          + (f"; log written to {args.log}" if args.log else ""), file=sys.stderr)
+
+
+def _how_stopped(r) -> str:
+    """How the motion came to rest, as the report says it did."""
+    from feedopt.rsi.streamer import StopKind
+
+    row = "" if r.stop_row is None else f" at row {int(r.stop_row) + 1} of {r.rows_total}"
+    if r.stop_kind is StopKind.RAMP:
+        return f"; the motion slowed to a stop along the path and was held{row}"
+    if r.stop_kind is StopKind.HOLD:
+        return (f"; the controller had held its correction meanwhile, so the robot stood still "
+                f"on the path: it was held there{row}")
+    return ""

@@ -112,7 +112,7 @@ def plan_from_poses(t_s: np.ndarray, pose: np.ndarray, start_q_deg: np.ndarray,
         if bad.size:
             k = int(bad[0]) + 1
             raise InputError(
-                f"{source}: data row {k} (t_s = {t[k]!r}) is {1e3 * dt[k - 1]:.6g} ms after "
+                f"{source}: data row {k} (t_s = {float(t[k])!r}) is {1e3 * dt[k - 1]:.6g} ms after "
                 f"the previous row; every row must be one {ms:g} ms cycle after the last "
                 "(a feedopt RSI CSV is sampled uniformly)")
     pose = np.array(pose, dtype=float)
@@ -149,7 +149,7 @@ def check_steps(plan: CorrectionPlan, max_step_mm: float, max_step_deg: float) -
         if bad.size:
             k = int(bad[0]) + 1
             raise InputError(
-                f"{plan.source}: data row {k} (t_s = {plan.t_s[k]!r}) moves "
+                f"{plan.source}: data row {k} (t_s = {float(plan.t_s[k])!r}) moves "
                 f"{values[k - 1]:.6g} {unit} in one cycle, more than the per-cycle limit "
                 f"{limit:g} {unit} ({option}; the largest step of the trajectory is "
                 f"{values.max():.6g} {unit}): raise {option} if the cell allows that speed")

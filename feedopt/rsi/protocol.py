@@ -119,7 +119,8 @@ def _ipoc(root: ET.Element) -> int:
     return value
 
 
-def _vector(root: ET.Element, tag: str, names: tuple[str, ...]) -> np.ndarray | None:
+def _vector(root: ET.Element, tag: str, names: tuple[str, ...],
+            finite: bool = True) -> np.ndarray | None:
     el = root.find(tag)
     if el is None:
         return None
@@ -132,7 +133,7 @@ def _vector(root: ET.Element, tag: str, names: tuple[str, ...]) -> np.ndarray | 
             out[i] = float(text)
         except ValueError:
             raise PacketError(f"<{tag}> {name}={text!r} is not a number") from None
-        if not math.isfinite(out[i]):
+        if finite and not math.isfinite(out[i]):
             raise PacketError(f"<{tag}> {name}={text!r} is not finite")
     return out
 
@@ -153,10 +154,12 @@ def parse_controller_packet(data: bytes) -> ControllerPacket:
                             aspos=_vector(root, "ASPos", AXES), delay=delay)
 
 
-def parse_sensor_answer(data: bytes) -> SensorAnswer:
-    """Read a ``<Sen Type="...">`` datagram (PacketError when it is not one, or lacks RKorr)."""
+def parse_sensor_answer(data: bytes, finite: bool = True) -> SensorAnswer:
+    """Read a ``<Sen Type="...">`` datagram (PacketError when it is not one, or lacks RKorr;
+    with ``finite`` also when an RKorr value is not finite: the simulated controller reads
+    them as a KRC would, as numbers, and refuses them itself)."""
     root = _parse(data, "Sen")
-    rkorr = _vector(root, "RKorr", CARTESIAN)
+    rkorr = _vector(root, "RKorr", CARTESIAN, finite)
     if rkorr is None:
         raise PacketError("no <RKorr> correction")
     stop = None

@@ -11,17 +11,30 @@ Phases (:class:`Phase`):
   checks that the controller's IPOC advances by the stream's cycle (a controller running
   12 ms against a 4 ms trajectory is refused) and that the robot (RIst) is at the
   trajectory's start pose.
-- ``run``: row k of the :class:`~feedopt.rsi.corrections.CorrectionPlan` answers the packet
-  whose IPOC is k cycles after the first running one (a missing packet skips its row: the
-  trajectory keeps its timing). With a PID (:mod:`feedopt.rsi.pid`, thesis Eq. 3.27) the
-  error between the pose the previous answer asked for and the measured pose (RIst, or a
+- ``run``: each answer takes the trajectory one row further from the row of the correction
+  the controller holds. With a PID (:mod:`feedopt.rsi.pid`, thesis Eq. 3.27) the error
+  between the pose the previous answer asked for and the measured pose (RIst, or a
   tracker's datagrams) adds its output.
-- ``ramp``: on the late-packet limit, Ctrl-C / SIGTERM or a controller packet gap the stream
-  does not freeze the correction: it keeps following the planned path while its speed falls
-  to zero along a smoothstep (1 - 3u^2 + 2u^3) whose length keeps the deceleration and jerk
-  within ``stop_accel_mm_s2`` / ``stop_jerk_mm_s3``.
+- ``resume``: after a stall (an IPOC gap: packets that never arrived or that the stream
+  skipped, or an answer the controller discarded) the controller held its correction, so
+  the robot stood still on the path: the stream neither jumps ahead to keep the clock nor
+  catches up (both would leave the path, or exceed the planned feed); it restarts from the
+  held row along the path, its speed rising along a smoothstep (3u^2 - 2u^3) as long as a
+  stop ramp. The trajectory is late by the stalled cycles.
+- ``ramp``: on the late-packet limit, Ctrl-C / SIGTERM or a restarted controller (its IPOC
+  goes back) the stream does not freeze the correction: it keeps following the planned path
+  while its speed falls to zero along a smoothstep (1 - 3u^2 + 2u^3) whose length keeps the
+  deceleration and jerk within ``stop_accel_mm_s2`` / ``stop_jerk_mm_s3``. A stall during
+  the ramp (or the gap that trips the limit) means the robot already stands still: it is
+  held where it stands.
 - ``hold``: the last correction is held and ``<Stop>1</Stop>`` asks the context's STOP
   object to end ``RSI_MOVECORR()``; the stream ends when the controller goes quiet.
+
+So every answer without a PID is a point of the planned path (``total`` in the log).
+
+The controller is ``controller`` in the settings (``--controller HOST[:PORT]``), else the
+sender of the first valid RSI packet; datagrams from other senders and invalid ones are
+counted and ignored.
 
 Every answer passes one gate: its step from the correction the controller holds is at most
 ``max_step_mm`` (translation norm) and ``max_step_deg`` (each angle), whatever the PID or a
@@ -73,10 +86,14 @@ from feedopt.rsi.protocol import (
     parse_controller_packet,
 )
 
+#: Quiet before an IPOC that goes back after which the robot is taken to stand still [s].
+RESTART_PAUSE_S = 0.1
+
 
 class Phase(enum.Enum):
     HANDSHAKE = "handshake"
     RUN = "run"
+    RESUME = "resume"
     RAMP = "ramp"
     HOLD = "hold"
 
@@ -85,9 +102,19 @@ class StreamStatus(enum.Enum):
     """How a stream ended."""
 
     COMPLETED = "completed"  # the whole trajectory was sent, then held
-    LATE_LIMIT = "late-packet limit"  # stopped safely (ramp to hold)
+    LATE_LIMIT = "late-packet limit"  # stopped safely (ramp or hold)
+    CONTROLLER_GAP = "controller gap"  # the IPOC jumped past the late-packet limit: held
+    RESTARTED = "controller restarted"  # the IPOC went back: stopped safely
     INTERRUPTED = "interrupted"  # Ctrl-C / SIGTERM / SIGHUP: stopped safely
     CONTROLLER_SILENT = "controller silent"  # packets stopped before the end
+
+
+class StopKind(enum.Enum):
+    """How the motion came to rest."""
+
+    END = "end"  # the last row of the trajectory
+    RAMP = "ramp"  # slowed down along the path (smoothstep)
+    HOLD = "hold"  # the controller had already held the correction still: kept there
 
 
 class Measurement(enum.Enum):
@@ -99,7 +126,8 @@ class Measurement(enum.Enum):
 
 @dataclass(frozen=True)
 class StreamSettings:
-    """Options of a stream (see ``feedopt stream --help`` for each)."""
+    """Options of a stream (see ``feedopt stream --help`` for each). ``controller``: the
+    controller's (IP, port or None for any port); None: the first valid RSI packet's sender."""
 
     listen: tuple[str, int] = ("127.0.0.1", 49152)
     mode: CorrectionMode = CorrectionMode.ABSOLUTE
@@ -121,13 +149,14 @@ class StreamSettings:
     stop_accel_mm_s2: float = 500.0
     stop_jerk_mm_s3: float = 5000.0
     late_after_s: float | None = None  # an answer later than this is late (None: one cycle)
+    controller: tuple[str, int | None] | None = None
 
 
 @dataclass(frozen=True)
 class CycleAnswer:
     """What one packet is answered with: ``sent`` is the RKorr (6,), ``total`` the correction
-    from the pose at RSI_ON after the gate, ``row`` the trajectory position (rows, may be
-    fractional while ramping), ``pid`` its output (or None), ``stop`` the Stop element."""
+    from the pose at RSI_ON after the gate, ``row`` the trajectory position (rows, fractional
+    while resuming or ramping), ``pid`` its output (or None), ``stop`` the Stop element."""
 
     phase: Phase
     row: float
@@ -145,12 +174,36 @@ def _smoothstep_distance(u: float) -> float:
     return u - u ** 3 + 0.5 * u ** 4
 
 
+def _smoothstep_rise(u: float) -> float:
+    """Integral of 3u^2 - 2u^3 from 0 to u (the resume's distance per unit of its length)."""
+    u = min(max(u, 0.0), 1.0)
+    return u ** 3 - 0.5 * u ** 4
+
+
+@dataclass
+class _Profile:
+    """A speed profile along the path from ``row0``: ``rate0`` rows per cycle at its start,
+    ``cycles`` long, ``n`` cycles done."""
+
+    row0: float
+    rate0: float
+    cycles: float
+    n: int = 0
+
+    @property
+    def u(self) -> float:
+        return self.n / self.cycles
+
+
 class CorrectionStream:
     """The per-cycle logic of the streamer, without sockets: packet in, answer out.
 
     :meth:`answer` is called once per answered packet with the pose the PID measures (RIst or
     the tracker's latest; None: none this cycle) and the number of packets left unanswered
     since the previous answer; :meth:`request_stop` starts the ramp to hold.
+
+    The trajectory position only ever advances from the row the controller holds, by at most
+    one row per answer: every answer is a point of the planned path (module docstring).
     """
 
     def __init__(self, plan: CorrectionPlan, settings: StreamSettings) -> None:
@@ -159,14 +212,17 @@ class CorrectionStream:
         self.cycle_ms = plan.cycle_s * 1e3
         self.phase = Phase.HANDSHAKE
         self.stop_status: StreamStatus | None = None
+        self.stop_kind: StopKind | None = None
+        self.stop_row: float | None = None
         self._handshake_ipocs: list[int] = []
-        self._start_ipoc: int | None = None
-        self._ramp: tuple[int, float, float] | None = None  # (ipoc, row, length in ms)
+        self._started = False
+        self._profile: _Profile | None = None  # of RESUME and RAMP
         self._total = np.zeros(6)  # the last answer sent
         self._held = np.zeros(6)  # the correction the controller holds
+        self._row = 0.0  # the row of the last answer
+        self._held_row = 0.0  # the row of the correction the controller holds
         self._last_delay: int | None = None
         self._desired_prev: np.ndarray | None = None
-        self._row = 0.0
         trans, _ = step_sizes(plan.absolute)
         self._speed_mm_s = trans / plan.cycle_s  # (n - 1,) per row
         self._pid: PidCoefficients | None = (
@@ -182,27 +238,65 @@ class CorrectionStream:
     @property
     def rows_reached(self) -> int:
         """Rows of the plan reached so far (0 before the run)."""
-        return 0 if self._start_ipoc is None else int(self._row) + 1
+        return int(self._row) + 1 if self._started else 0
 
     @property
     def stopping(self) -> bool:
         return self.phase in (Phase.RAMP, Phase.HOLD)
 
+    def _speed_at(self, row: float) -> float:
+        """Planned speed [mm/s] at ``row`` (0 for a one-row plan)."""
+        if self.last_row == 0:
+            return 0.0
+        return float(self._speed_mm_s[min(int(row), self.last_row - 1)])
+
+    def _rate(self) -> float:
+        """Rows per cycle of the current motion (1 while running)."""
+        p = self._profile
+        if self.phase is Phase.RUN:
+            return 1.0
+        if self.phase is Phase.RESUME and p is not None:
+            u = min(p.u, 1.0)
+            return 3 * u ** 2 - 2 * u ** 3
+        if self.phase is Phase.RAMP and p is not None:
+            u = min(p.u, 1.0)
+            return p.rate0 * (1 - 3 * u ** 2 + 2 * u ** 3)
+        return 0.0
+
+    def _profile_cycles(self, speed_mm_s: float) -> float:
+        """Cycles of a speed change between 0 and ``speed_mm_s`` within the stop limits."""
+        s = self.settings
+        length_s = max(4 * self.plan.cycle_s, 1.5 * speed_mm_s / s.stop_accel_mm_s2,
+                       math.sqrt(6.0 * speed_mm_s / s.stop_jerk_mm_s3))
+        return length_s / self.plan.cycle_s
+
+    def _hold(self, row: float, kind: StopKind) -> None:
+        self.phase = Phase.HOLD
+        self._row = row
+        self.stop_kind = kind
+        self.stop_row = row
+
     def request_stop(self, status: StreamStatus, ipoc: int | None = None) -> None:
-        """Begin the ramp to hold (no effect once stopping; before the run: hold at once)."""
+        """Begin the ramp to hold from the current row and speed (no effect once stopping;
+        before the run: hold at once). ``ipoc`` is accepted for callers of the older API."""
+        del ipoc
         if self.stopping:
             return
         self.stop_status = status
-        if self.phase is Phase.HANDSHAKE or ipoc is None or self._start_ipoc is None:
-            self.phase = Phase.HOLD
+        if not self._started:
+            self._hold(self._row, StopKind.HOLD)
             return
-        k = min(int(self._row), self.last_row - 1) if self.last_row > 0 else 0
-        v = float(self._speed_mm_s[k]) if self.last_row > 0 else 0.0
-        s = self.settings
-        length_s = max(4 * self.plan.cycle_s, 1.5 * v / s.stop_accel_mm_s2,
-                       math.sqrt(6.0 * v / s.stop_jerk_mm_s3))
-        self._ramp = (ipoc, self._row, length_s * 1e3)
+        rate = self._rate()
+        v = rate * self._speed_at(self._row)
+        self._profile = _Profile(self._row, rate, self._profile_cycles(v))
         self.phase = Phase.RAMP
+
+    def restart(self) -> None:
+        """The controller's IPOC went back: forget its late count (a new context counts
+        from 0) and, before the run, start the handshake again."""
+        self._last_delay = None
+        if self.phase is Phase.HANDSHAKE:
+            self._handshake_ipocs.clear()
 
     # -- handshake -----------------------------------------------------------------------
     def _check_handshake(self, packet: ControllerPacket, measured: np.ndarray | None) -> None:
@@ -221,8 +315,8 @@ class CorrectionStream:
             dist = float(np.linalg.norm(d[:3]))
             ang = float(np.max(np.abs(wrap_deg(d[3:]))))
             if dist > s.start_tolerance_mm or ang > s.start_tolerance_deg:
-                pose = ", ".join(f"{v:.3f}" for v in packet.rist)
-                start = ", ".join(f"{v:.3f}" for v in self.plan.start_pose)
+                pose = ", ".join(f"{v:.3f}" for v in packet.rist.tolist())
+                start = ", ".join(f"{v:.3f}" for v in self.plan.start_pose.tolist())
                 raise InputError(
                     f"the robot is at X,Y,Z,A,B,C = {pose} (RIst) but {self.plan.source} starts "
                     f"at {start}: {dist:.3f} mm / {ang:.3f} deg away (tolerance "
@@ -243,30 +337,59 @@ class CorrectionStream:
         a = self.plan.absolute
         return a[i] if self.last_row == 0 else a[i] + f * (a[i + 1] - a[i])
 
-    def _update_row(self, ipoc: int) -> None:
+    def _advance(self, stalled: bool) -> None:
+        """The next row: one more from the held row while running; after a stall (the
+        controller held its correction for a cycle or more, so the robot stood still) a
+        smooth restart from the held row, or, while stopping, a hold there."""
+        if stalled and self.phase in (Phase.RUN, Phase.RESUME):
+            row0 = self._held_row
+            cycles = math.ceil(self._profile_cycles(self._speed_at(row0)) - 1e-9)
+            self._profile = _Profile(row0, 0.0, float(cycles))  # whole cycles: ends at rate 1
+            self.phase = Phase.RESUME
+        elif stalled and self.phase is Phase.RAMP:
+            self._hold(self._held_row, StopKind.HOLD)
+            return
+        p = self._profile
         if self.phase is Phase.RUN:
-            self._row = (ipoc - self._start_ipoc) / self.cycle_ms
-            if self._row >= self.last_row:
-                self._row = float(self.last_row)
-                self.stop_status = StreamStatus.COMPLETED
-                self.phase = Phase.HOLD
+            self._row += 1.0
+        elif self.phase is Phase.RESUME:
+            p.n += 1
+            self._row = p.row0 + p.cycles * _smoothstep_rise(p.u)
+            if p.u >= 1.0:
+                self.phase = Phase.RUN
         elif self.phase is Phase.RAMP:
-            ipoc0, row0, length_ms = self._ramp
-            u = (ipoc - ipoc0) / length_ms
-            self._row = min(row0 + length_ms / self.cycle_ms * _smoothstep_distance(u),
-                            float(self.last_row))
-            if u >= 1.0 or self._row >= self.last_row:
-                self.phase = Phase.HOLD
+            p.n += 1
+            self._row = p.row0 + p.rate0 * p.cycles * _smoothstep_distance(p.u)
+            if p.u >= 1.0:
+                self._hold(min(self._row, float(self.last_row)), StopKind.RAMP)
+        if self._row >= self.last_row and self.phase is not Phase.HOLD:
+            ending = self.phase is not Phase.RAMP
+            if ending:
+                self.stop_status = StreamStatus.COMPLETED
+            self._hold(float(self.last_row), StopKind.END if ending else StopKind.RAMP)
 
-    def _track_held(self, packet: ControllerPacket, unanswered: int) -> None:
-        """Update what the controller holds from its late count (module docstring)."""
-        if packet.delay is None:
-            self._held = self._total
-        elif self._last_delay is not None:
-            discarded = packet.delay - self._last_delay - unanswered
-            if discarded <= 0:
-                self._held = self._total
-        self._last_delay = packet.delay
+    def _track_held(self, packet: ControllerPacket, unanswered: int) -> bool:
+        """Update what the controller holds from its late count (module docstring); True
+        when it held its correction for a cycle or more since the last answer (a stall)."""
+        accepted = True
+        if packet.delay is not None and self._last_delay is not None:
+            accepted = packet.delay - self._last_delay - unanswered <= 0
+        if packet.delay is not None:
+            self._last_delay = packet.delay
+        if accepted:
+            self._held, self._held_row = self._total, self._row
+        return unanswered > 0 or not accepted
+
+    def _handshake(self, packet: ControllerPacket, measured: np.ndarray | None) -> CycleAnswer:
+        self._handshake_ipocs.append(packet.ipoc)
+        if len(self._handshake_ipocs) >= self.settings.handshake_cycles:
+            self._check_handshake(packet, measured)
+            self.phase = Phase.RUN
+            self._started = True
+            self._row = self._held_row = -1.0  # the next answer is row 0
+        zero = np.zeros(6)
+        return CycleAnswer(Phase.HANDSHAKE, 0.0, zero, zero, False, measured=measured,
+                           held=zero)
 
     def answer(self, packet: ControllerPacket, measured: np.ndarray | None,
                unanswered: int = 0) -> CycleAnswer:
@@ -275,17 +398,13 @@ class CorrectionStream:
         during the handshake when the controller runs another cycle, the robot is not at the
         start pose or the PID has no measurement."""
         s = self.settings
-        self._track_held(packet, unanswered)
+        stalled = self._track_held(packet, unanswered)
         if self.phase is Phase.HANDSHAKE:
-            self._handshake_ipocs.append(packet.ipoc)
-            if len(self._handshake_ipocs) >= s.handshake_cycles:
-                self._check_handshake(packet, measured)
-                self.phase = Phase.RUN
-                self._start_ipoc = packet.ipoc + round(self.cycle_ms)
-            zero = np.zeros(6)
-            return CycleAnswer(Phase.HANDSHAKE, 0.0, zero, zero, False, measured=measured,
-                               held=zero)
-        self._update_row(packet.ipoc)
+            return self._handshake(packet, measured)
+        if self._row < 0:  # the first running answer: nothing held yet
+            self._row = self._held_row = -1.0
+            stalled = False
+        self._advance(stalled)
         if self._pid is not None and self.phase is Phase.RUN and measured is not None \
                 and self._desired_prev is not None:
             e = self._desired_prev - measured
@@ -307,7 +426,11 @@ class CorrectionStream:
 
 @dataclass(frozen=True)
 class StreamReport:
-    """The outcome of a stream (typed; the command turns it into text and an exit code)."""
+    """The outcome of a stream (typed; the command turns it into text and an exit code).
+    ``foreign``: datagrams from other senders (up to 3 of them in ``foreign_senders``);
+    ``stop_kind`` / ``stop_row``: how and where the motion came to rest; ``largest_gap``:
+    the most controller cycles missing at once; ``restart``: (IPOC before, IPOC after) when
+    the controller's IPOC went back."""
 
     status: StreamStatus
     answered: int
@@ -325,6 +448,12 @@ class StreamReport:
     controller: tuple[str, int] | None = None
     max_pid_mm: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    foreign: int = 0
+    foreign_senders: tuple[str, ...] = field(default=())
+    stop_kind: StopKind | None = None
+    stop_row: float | None = None
+    largest_gap: int = 0
+    restart: tuple[int, int] | None = None
 
 
 LOG_COLUMNS = ("ipoc", "t_s", "phase", "row", "late", "missing", "controller_late",
@@ -391,6 +520,45 @@ def parse_tracker_datagram(data: bytes) -> np.ndarray:
     return values
 
 
+def _address_text(addr: tuple) -> str:
+    host, port = addr[0], addr[1]
+    return f"[{host}]:{port}" if ":" in str(host) else f"{host}:{port}"
+
+
+def resolve_controller(host: str, port: int | None) -> tuple[str, int | None]:
+    """``--controller HOST[:PORT]`` as (IP, port or None); InputError when HOST does not
+    resolve."""
+    try:
+        infos = socket.getaddrinfo(host, port or 0, type=socket.SOCK_DGRAM)
+    except socket.gaierror as exc:
+        raise InputError(f"--controller {host}: cannot resolve {host!r} ({exc.strerror}); give "
+                         "the controller's IP address (its KLI / RSI network card)") from None
+    return str(infos[0][4][0]), port
+
+
+@dataclass
+class _Tally:
+    """Counters of one stream."""
+
+    late: int = 0
+    missing: int = 0
+    bad: int = 0
+    foreign: int = 0
+    answered: int = 0
+    controller_late: int = 0
+    largest_gap: int = 0
+    max_response_s: float = 0.0
+    max_pid_mm: float = 0.0
+    max_step: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    foreign_senders: list[str] = field(default_factory=list)
+
+    def count_foreign(self, addr: tuple) -> None:
+        self.foreign += 1
+        text = _address_text(addr)
+        if len(self.foreign_senders) < 3 and text not in self.foreign_senders:
+            self.foreign_senders.append(text)
+
+
 class Streamer:
     """The UDP server. Binding happens here (a port in use is an InputError before anything
     else); :meth:`run` streams one plan; :meth:`close` releases the sockets."""
@@ -426,7 +594,8 @@ class Streamer:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _latest_tracker(self, current: np.ndarray | None) -> tuple[np.ndarray | None, int]:
+    def latest_tracker(self, current: np.ndarray | None) -> tuple[np.ndarray | None, int]:
+        """The newest tracker pose queued (or ``current``) and the bad datagrams read."""
         bad = 0
         while self._tracker is not None and _readable(self._tracker):
             data = self._tracker.recv(MAX_PACKET_BYTES)
@@ -438,11 +607,12 @@ class Streamer:
 
     def run(self, plan: CorrectionPlan, log_path: str | Path | None = None,
             progress: Callable[[int, int], None] | None = None) -> StreamReport:
-        """Stream ``plan`` to the first controller that sends; see the module docstring.
+        """Stream ``plan`` to the controller (``settings.controller``, else the sender of the
+        first valid RSI packet); see the module docstring.
 
-        Raises InputError when no packet arrives within ``wait_s``, the packets are not RSI,
-        or the handshake fails (other cycle, robot not at the start, PID without a
-        measurement); otherwise returns a :class:`StreamReport` whatever the ending.
+        Raises InputError when no valid RSI packet arrives within ``wait_s``, or the
+        handshake fails (other cycle, robot not at the start, PID without a measurement);
+        otherwise returns a :class:`StreamReport` whatever the ending.
         """
         log = None if log_path is None else open(log_path, "w", encoding="ascii")  # noqa: SIM115
         gc_was_enabled = gc.isenabled()
@@ -450,169 +620,284 @@ class Streamer:
         try:
             if log is not None:
                 log.write(",".join(LOG_COLUMNS) + "\n")
-            return self._run(plan, log, progress)
+            return _Session(self, plan, log, progress).run()
         finally:
             if gc_was_enabled:
                 gc.enable()
             if log is not None:
                 log.close()
 
-    def _first_packet(self) -> tuple[bytes, tuple, float]:
-        s = self.settings
-        self._sock.settimeout(s.wait_s)
-        host, port = self.address
-        try:
-            data, addr = self._sock.recvfrom(MAX_PACKET_BYTES)
-        except TimeoutError:
-            raise InputError(
-                f"no RSI packet from the controller within {s.wait_s:g} s on {host}:{port} "
-                "(--wait-s): is the RSI program at RSI_ON / RSI_MOVECORR, and do IP_NUMBER / "
-                "PORT of the controller's Ethernet configuration name this address?") from None
-        return data, addr, time.perf_counter()
 
-    def _run(self, plan, log, progress) -> StreamReport:  # noqa: C901 - one protocol loop
-        s = self.settings
-        logic = CorrectionStream(plan, s)
-        cycle_s = plan.cycle_s
-        late_after = cycle_s if s.late_after_s is None else s.late_after_s
-        cycle_ms = round(plan.cycle_s * 1e3)
-        data, controller, t_recv = self._first_packet()
-        t0 = t_recv
-        self._sock.settimeout(s.silence_s)
-        late = missing = bad = answered = 0
-        controller_late = 0
-        delay0: int | None = None
-        last_ipoc: int | None = None
-        max_response = 0.0
-        max_step = np.zeros(2)
-        skipped = 0  # packets received since the last answer but not answered (stale, bad)
-        behind = 0  # consecutive packets older than the last answered one
-        max_pid = 0.0
-        measured_tracker: np.ndarray | None = None
+class _Session:
+    """One stream: the receive loop, the IPOC bookkeeping, answers and the log."""
+
+    def __init__(self, streamer: Streamer, plan: CorrectionPlan, log, progress) -> None:
+        self.streamer = streamer
+        self.sock = streamer._sock
+        self.s = streamer.settings
+        self.plan = plan
+        self.log = log
+        self.progress = progress
+        self.logic = CorrectionStream(plan, self.s)
+        self.cycle_ms = round(plan.cycle_s * 1e3)
+        self.late_after = plan.cycle_s if self.s.late_after_s is None else self.s.late_after_s
+        self.n = _Tally()
+        self.controller: tuple | None = None
+        self.t0 = 0.0
+        self.last_ipoc: int | None = None
+        self.t_last = 0.0  # when the last packet taken (answered or ignored) arrived
+        self.delay0: int | None = None
+        self.skipped = 0  # packets received since the last answer but not answered
+        self.measured_tracker: np.ndarray | None = None
+        self.stop_sent_at: float | None = None
+        self.stop_acknowledged = False
+        self.restart: tuple[int, int] | None = None
+        self.notes: list[str] = []
+
+    # -- receiving -----------------------------------------------------------------------
+    def _from_controller(self, addr: tuple) -> bool:
+        if self.controller is not None:
+            return tuple(addr[:2]) == tuple(self.controller[:2])
+        want = self.s.controller
+        return want is None or (addr[0] == want[0] and want[1] in (None, addr[1]))
+
+    def _first_packet(self) -> tuple[ControllerPacket, float]:
+        """The first valid RSI packet from the controller (others counted and ignored)."""
+        s = self.s
+        deadline = time.monotonic() + s.wait_s
+        last_error = ""
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise InputError(self._no_packet_message(last_error))
+            self.sock.settimeout(remaining)
+            try:
+                data, addr = self.sock.recvfrom(MAX_PACKET_BYTES)
+            except TimeoutError:
+                continue
+            t_recv = time.perf_counter()
+            if not self._from_controller(addr):
+                self.n.count_foreign(addr)
+                continue
+            try:
+                packet = parse_controller_packet(data)
+            except PacketError as exc:
+                self.n.bad += 1
+                last_error = f"{exc} (from {_address_text(addr)})"
+                if s.controller is not None and self.n.bad >= max(s.late_limit, 1):
+                    raise InputError(
+                        f"{self.n.bad} datagrams from the controller {_address_text(addr)} are "
+                        f"not KUKA RSI packets (<Rob> with <IPOC>): {exc}") from None
+                continue
+            self.controller = tuple(addr[:2])
+            return packet, t_recv
+
+    def _no_packet_message(self, last_error: str) -> str:
+        s = self.s
+        host, port = self.streamer.address
+        who = ("" if s.controller is None else
+               f" (--controller {s.controller[0]}"
+               + ("" if s.controller[1] is None else f":{s.controller[1]}") + ")")
+        extra = []
+        if self.n.bad:
+            extra.append(f"{self.n.bad} datagrams were not RSI packets (last: {last_error})")
+        if self.n.foreign:
+            extra.append(f"{self.n.foreign} came from other senders "
+                         f"({', '.join(self.n.foreign_senders)})")
+        return (f"no RSI packet from the controller{who} within {s.wait_s:g} s on "
+                f"{host}:{port} (--wait-s)"
+                + (f"; {'; '.join(extra)}" if extra else "")
+                + ": is the RSI program at RSI_ON / RSI_MOVECORR, and do IP_NUMBER / PORT of "
+                "the controller's Ethernet configuration name this address?")
+
+    def _receive(self) -> tuple[bytes, float] | None:
+        """The newest datagram queued from the controller (older ones are late and skipped;
+        other senders' are counted), or None when the controller went quiet."""
+        data = None
+        while data is None:
+            try:
+                data, addr = self.sock.recvfrom(MAX_PACKET_BYTES)
+            except TimeoutError:
+                return None
+            if not self._from_controller(addr):
+                self.n.count_foreign(addr)
+                data = None
+        t_recv = time.perf_counter()
+        while _readable(self.sock):
+            newer, addr = self.sock.recvfrom(MAX_PACKET_BYTES)
+            if not self._from_controller(addr):
+                self.n.count_foreign(addr)
+                continue
+            self.n.late += 1
+            self.skipped += 1
+            data, t_recv = newer, time.perf_counter()
+        return data, t_recv
+
+    # -- IPOC bookkeeping ----------------------------------------------------------------
+    def _unanswered(self, packet: ControllerPacket, t_recv: float) -> int | None:
+        """Packets between the last answered one and ``packet`` that were not answered;
+        None when ``packet`` is to be ignored (a repeated IPOC). An IPOC that goes back is a
+        restarted controller: stop (ramp along the path, hold, Stop)."""
+        if self.last_ipoc is not None and packet.ipoc == self.last_ipoc:
+            self.n.bad += 1  # a repeat: its answer was already sent
+            return None
+        if self.last_ipoc is not None and packet.ipoc < self.last_ipoc:
+            if self.restart is None:
+                self.restart = (self.last_ipoc, packet.ipoc)
+                self.notes.append(
+                    f"the controller's IPOC went back from {self.last_ipoc} to {packet.ipoc} "
+                    "(a restarted RSI context or controller)")
+            self.logic.restart()
+            self.delay0 = None
+            if self.logic.phase is not Phase.HANDSHAKE:
+                self.logic.request_stop(StreamStatus.RESTARTED)
+            self.last_ipoc = packet.ipoc
+            quiet_s = t_recv - self.t_last
+            self.t_last = t_recv
+            # a pause before the restart: the controller held its correction, so the robot
+            # stands still (a stall: hold there); else slow down from the current speed
+            return 1 if quiet_s > RESTART_PAUSE_S else 0
+        unanswered = 0
+        if self.last_ipoc is not None:
+            unanswered = max(int((packet.ipoc - self.last_ipoc) // self.cycle_ms) - 1, 0)
+            if self.logic.phase is not Phase.HANDSHAKE:
+                gap = max(unanswered - self.skipped, 0)
+                self.n.missing += gap
+                self.n.largest_gap = max(self.n.largest_gap, gap)
+        self.last_ipoc = packet.ipoc
+        self.t_last = t_recv
+        if packet.delay is not None:
+            self.delay0 = packet.delay if self.delay0 is None else self.delay0
+            self.n.controller_late = max(self.n.controller_late, packet.delay - self.delay0)
+        return unanswered
+
+    def _check_limit(self, unanswered: int) -> None:
+        """Stop on the late-packet limit (a gap of missing packets: the controller held its
+        correction meanwhile, so the stop is a hold where it stands)."""
+        s, n, logic = self.s, self.n, self.logic
+        if logic.phase not in (Phase.RUN, Phase.RESUME):
+            return
+        if n.late + n.missing >= s.late_limit or n.controller_late >= s.late_limit:
+            gap = unanswered > self.skipped and unanswered - self.skipped >= s.late_limit
+            logic.request_stop(StreamStatus.CONTROLLER_GAP if gap else StreamStatus.LATE_LIMIT)
+
+    # -- one packet ----------------------------------------------------------------------
+    def _handle(self, packet: ControllerPacket, t_recv: float) -> bool:
+        """Answer one packet; False when the stream is to end."""
+        s, n = self.s, self.n
+        unanswered = self._unanswered(packet, t_recv)
+        if unanswered is None:
+            return True
+        self._check_limit(unanswered)
+        if s.measurement is Measurement.TRACKER:
+            self.measured_tracker, bad_tracker = self.streamer.latest_tracker(
+                self.measured_tracker)
+            n.bad += bad_tracker
+            measured = self.measured_tracker
+        else:
+            measured = packet.rist
+        try:
+            ans = self.logic.answer(packet, measured, unanswered)
+        except InputError:
+            # nothing has moved yet: hold and ask the controller to stop, then refuse
+            self.sock.sendto(build_sensor_answer(packet.ipoc, np.zeros(6), True, s.sen_type),
+                             self.controller)
+            raise
+        self.skipped = 0
+        self.sock.sendto(build_sensor_answer(packet.ipoc, ans.sent, ans.stop, s.sen_type),
+                         self.controller)
+        t_send = time.perf_counter()
+        self._account(packet, ans, t_recv, t_send)
+        if ans.stop and self.stop_sent_at is None:
+            self.stop_sent_at = t_send
+            # the controller ends RSI_MOVECORR on Stop: a short quiet is the end
+            self.sock.settimeout(min(s.silence_s, 25 * self.plan.cycle_s))
+        if self.stop_sent_at is not None and t_send - self.stop_sent_at > s.hold_s:
+            self.notes.append(f"the controller kept sending {s.hold_s:g} s after <Stop>1: is "
+                              "the Stop element of the Ethernet configuration wired to a STOP "
+                              "object in the RSI context?")
+            return False
+        return True
+
+    def _account(self, packet: ControllerPacket, ans: CycleAnswer, t_recv: float,
+                 t_send: float) -> None:
+        n = self.n
+        n.answered += 1
+        response = t_send - t_recv
+        n.max_response_s = max(n.max_response_s, response)
+        if response > self.late_after and ans.phase is not Phase.HANDSHAKE:
+            n.late += 1
+        step = ans.total - ans.held
+        n.max_step = np.maximum(n.max_step, [np.linalg.norm(step[:3]),
+                                             np.max(np.abs(step[3:]))])
+        if ans.pid is not None:
+            n.max_pid_mm = max(n.max_pid_mm, float(np.linalg.norm(ans.pid[:3])))
+        if self.log is not None:
+            _log_row(self.log, packet.ipoc, t_recv - self.t0, ans, n.late, n.missing,
+                     n.controller_late, response)
+        if self.progress is not None and ans.phase is Phase.RUN:
+            self.progress(int(ans.row), self.logic.last_row)
+        if self.logic.phase in (Phase.RUN, Phase.RESUME) and (
+                n.late + n.missing >= self.s.late_limit
+                or n.controller_late >= self.s.late_limit):
+            self.logic.request_stop(StreamStatus.LATE_LIMIT)
+
+    # -- the loop ------------------------------------------------------------------------
+    def run(self) -> StreamReport:
+        pending: tuple[ControllerPacket, float] | None = self._first_packet()
+        self.t0 = pending[1]
+        self.sock.settimeout(self.s.silence_s)
         signal_name: str | None = None
-        stop_sent_at: float | None = None
-        stop_acknowledged = False
-        notes: list[str] = []
-        host, port = self.address
         while True:
             try:
-                if data is None:
-                    try:
-                        data, addr = self._sock.recvfrom(MAX_PACKET_BYTES)
-                    except TimeoutError:
-                        if stop_sent_at is not None:  # the controller ended RSI_MOVECORR
-                            stop_acknowledged = True
-                            break
-                        notes.append(f"the controller sent nothing for {s.silence_s:g} s "
-                                     f"after IPOC {last_ipoc}")
-                        if logic.stop_status is None:
-                            logic.stop_status = StreamStatus.CONTROLLER_SILENT
+                if pending is None:
+                    received = self._receive()
+                    if received is None:
+                        self._silence()
                         break
-                    t_recv = time.perf_counter()
-                    if addr != controller:
-                        data = None
+                    try:
+                        pending = (parse_controller_packet(received[0]), received[1])
+                    except PacketError:
+                        self.n.bad += 1
+                        self.skipped += 1
                         continue
-                # read what else is queued: only the newest packet is worth answering
-                while _readable(self._sock):
-                    newer, addr2 = self._sock.recvfrom(MAX_PACKET_BYTES)
-                    if addr2 != controller:
-                        continue
-                    late += 1
-                    skipped += 1
-                    data, t_recv = newer, time.perf_counter()
-                try:
-                    packet = parse_controller_packet(data)
-                except PacketError as exc:
-                    bad += 1
-                    skipped += 1
-                    data = None
-                    if answered == 0 and bad >= max(s.late_limit, 1):
-                        raise InputError(
-                            f"{bad} datagrams on {host}:{port} are not KUKA RSI packets "
-                            f"(<Rob> with <IPOC>): {exc}") from None
-                    continue
-                data = None
-                if last_ipoc is not None and packet.ipoc <= last_ipoc:
-                    # out of order or repeated: its answer would be discarded anyway
-                    bad += 1
-                    behind += 1
-                    if behind >= max(s.late_limit, 1):
-                        raise InputError(
-                            f"the controller's IPOC went back ({packet.ipoc} after {last_ipoc}) "
-                            f"for {behind} packets: a restarted RSI context? start the stream "
-                            "again")
-                    continue
-                behind = 0
-                unanswered = 0  # packets since the last answered one, not answered
-                if last_ipoc is not None:
-                    unanswered = max(int((packet.ipoc - last_ipoc) // cycle_ms) - 1, 0)
-                    if logic.phase is not Phase.HANDSHAKE:
-                        missing += max(unanswered - skipped, 0)
-                last_ipoc = packet.ipoc
-                if packet.delay is not None:
-                    delay0 = packet.delay if delay0 is None else delay0
-                    controller_late = packet.delay - delay0
-                if s.measurement is Measurement.TRACKER:
-                    measured_tracker, bad_tracker = self._latest_tracker(measured_tracker)
-                    bad += bad_tracker
-                    measured = measured_tracker
-                else:
-                    measured = packet.rist
-                try:
-                    ans = logic.answer(packet, measured, unanswered)
-                    skipped = 0
-                except InputError:
-                    # nothing has moved yet: hold and ask the controller to stop, then refuse
-                    self._sock.sendto(build_sensor_answer(packet.ipoc, np.zeros(6), True,
-                                                          s.sen_type), controller)
-                    raise
-                self._sock.sendto(build_sensor_answer(packet.ipoc, ans.sent, ans.stop,
-                                                      s.sen_type), controller)
-                t_send = time.perf_counter()
-                answered += 1
-                response = t_send - t_recv
-                max_response = max(max_response, response)
-                if response > late_after and ans.phase is not Phase.HANDSHAKE:
-                    late += 1
-                if ans.stop and stop_sent_at is None:
-                    stop_sent_at = t_send
-                    # the controller ends RSI_MOVECORR on Stop: a short quiet is the end
-                    self._sock.settimeout(min(s.silence_s, 25 * cycle_s))
-                step = ans.total - ans.held
-                max_step = np.maximum(max_step, [np.linalg.norm(step[:3]),
-                                                 np.max(np.abs(step[3:]))])
-                if ans.pid is not None:
-                    max_pid = max(max_pid, float(np.linalg.norm(ans.pid[:3])))
-                if log is not None:
-                    _log_row(log, packet.ipoc, t_recv - t0, ans, late, missing, controller_late,
-                             response)
-                if progress is not None and ans.phase is Phase.RUN:
-                    progress(int(ans.row), logic.last_row)
-                if not logic.stopping and logic.phase is Phase.RUN and (
-                        late + missing >= s.late_limit or controller_late >= s.late_limit):
-                    logic.request_stop(StreamStatus.LATE_LIMIT, packet.ipoc)
-                if stop_sent_at is not None and t_send - stop_sent_at > s.hold_s:
-                    notes.append(f"the controller kept sending {s.hold_s:g} s after <Stop>1: "
-                                 "is the Stop element of the Ethernet configuration wired to a "
-                                 "STOP object in the RSI context?")
+                packet, t_recv = pending
+                pending = None
+                if not self._handle(packet, t_recv):
                     break
             except (KeyboardInterrupt, Terminated) as exc:
-                data = None
+                pending = None
                 if signal_name is None:
                     signal_name = (exc.signal_name if isinstance(exc, Terminated) else "SIGINT")
-                    if logic.phase is Phase.HANDSHAKE and answered == 0:
+                    if self.logic.phase is Phase.HANDSHAKE and self.n.answered == 0:
                         raise
-                    logic.request_stop(StreamStatus.INTERRUPTED, last_ipoc)
+                    self.logic.request_stop(StreamStatus.INTERRUPTED)
+        return self._report(signal_name)
+
+    def _silence(self) -> None:
+        if self.stop_sent_at is not None:  # the controller ended RSI_MOVECORR
+            self.stop_acknowledged = True
+            return
+        self.notes.append(f"the controller sent nothing for {self.s.silence_s:g} s after IPOC "
+                          f"{self.last_ipoc}")
+        if self.logic.stop_status is None:
+            self.logic.stop_status = StreamStatus.CONTROLLER_SILENT
+
+    def _report(self, signal_name: str | None) -> StreamReport:
+        logic, n = self.logic, self.n
         status = logic.stop_status or StreamStatus.CONTROLLER_SILENT
         if signal_name is not None and status is not StreamStatus.COMPLETED:
             status = StreamStatus.INTERRUPTED
         return StreamReport(
-            status=status, answered=answered, rows_sent=logic.rows_reached,
-            rows_total=len(plan), late=late, missing=missing, controller_late=controller_late,
-            bad_packets=bad, max_response_ms=max_response * 1e3, max_step_mm=float(max_step[0]),
-            max_step_deg=float(max_step[1]), stop_acknowledged=stop_acknowledged,
-            signal_name=signal_name, controller=controller[:2], max_pid_mm=max_pid,
-            notes=tuple(notes))
+            status=status, answered=n.answered, rows_sent=logic.rows_reached,
+            rows_total=len(self.plan), late=n.late, missing=n.missing,
+            controller_late=n.controller_late, bad_packets=n.bad,
+            max_response_ms=n.max_response_s * 1e3, max_step_mm=float(n.max_step[0]),
+            max_step_deg=float(n.max_step[1]), stop_acknowledged=self.stop_acknowledged,
+            signal_name=signal_name, controller=self.controller, max_pid_mm=n.max_pid_mm,
+            notes=tuple(self.notes), foreign=n.foreign,
+            foreign_senders=tuple(n.foreign_senders), stop_kind=logic.stop_kind,
+            stop_row=logic.stop_row, largest_gap=n.largest_gap, restart=self.restart)
 
 
 def _fmt(values: np.ndarray | None) -> str:

@@ -172,7 +172,9 @@ def _speeds(command: np.ndarray) -> np.ndarray:
 
 def test_a_stalled_streamer_trips_the_late_packet_limit(stretch, tmp_path) -> None:
     """SIGSTOP the streamer for 0.5 s mid-path: it counts the packets queued meanwhile as
-    late, trips --late-limit 10, slows to a stop along the path and holds (exit 3)."""
+    late and trips --late-limit 10 (exit 3). The controller held its correction all along
+    (no answer), so the robot already stands still on the path: the stream holds it there
+    (no jump ahead, no catch-up, no ramp from a speed it no longer has) and sends Stop."""
     csv = stretch(1500)
     want = poses(read_rsi_csv(csv))
     log = tmp_path / "cycles.csv"
@@ -195,15 +197,18 @@ def test_a_stalled_streamer_trips_the_late_packet_limit(stretch, tmp_path) -> No
         proc.kill()
     assert proc.returncode == 3, (out, err)
     assert "stream late-packet limit" in out and "late-packet limit (10)" in err
+    assert "the robot stood still on the path: it was held there at row" in err
     assert sim.status is SimStatus.STOPPED and sim.late >= 10
     lg = _read_log(log)
-    first_ramp = int(np.argmax(lg["phase"] == "ramp"))
-    assert lg["late"][first_ramp] >= 10 and lg["t_s"][first_ramp] > 1.0  # tripped by the stall
+    first_hold = int(np.argmax(lg["phase"] == "hold"))
+    assert lg["late"][first_hold] >= 10 and lg["t_s"][first_hold] > 1.0  # tripped by the stall
+    assert "ramp" not in set(lg["phase"])
     assert lg["row"][-1] < len(want) - 100  # stopped well before the end of the trajectory
     assert sim.max_path_error_mm < 1e-3  # on the path all along
     v = _speeds(sim.record.command)
-    assert v[-1] < 1e-2 and np.all(np.diff(v[-10:]) < 0)  # slowed down to rest
-    assert v.max() <= 0.1 / CYCLE + 1e-3  # --max-step-mm 0.1 (default) even while catching up
+    stalled = int(np.argmax(np.convolve(sim.record.late, np.ones(10), "valid") >= 10))
+    assert stalled > 100 and np.all(v[stalled:] < 1e-6)  # held where the stall left it
+    assert v.max() <= 0.1 / CYCLE + 1e-3  # --max-step-mm 0.1 (default)
 
 
 def test_ctrl_c_ramps_to_hold(stretch, tmp_path) -> None:
@@ -212,17 +217,23 @@ def test_ctrl_c_ramps_to_hold(stretch, tmp_path) -> None:
     csv = stretch(1500)
     want = poses(read_rsi_csv(csv))
     log = tmp_path / "cycles.csv"
-    proc, port = _cli_stream([str(csv), "--listen", "127.0.0.1:0", "--log", str(log),
-                              "--realtime", "--late-limit", "1000"])
-    timer = threading.Timer(1.5, lambda: proc.send_signal(signal.SIGINT))
-    timer.start()
-    try:
-        sim = run_sim(SimSettings(connect=("127.0.0.1", port), start_pose=tuple(want[0]),
-                                  reply_timeout_s=GENEROUS, max_s=30.0), reference=want[:, :3])
-        out, err = proc.communicate(timeout=20)
-    finally:
-        timer.cancel()
-        proc.kill()
+    # A late answer (the controller holds a cycle: the robot stops for 4 ms) depends on the
+    # machine's load; the speed profile is checked on a run without one.
+    for _attempt in range(3):
+        proc, port = _cli_stream([str(csv), "--listen", "127.0.0.1:0", "--log", str(log),
+                                  "--realtime", "--late-limit", "1000"])
+        timer = threading.Timer(1.5, lambda p=proc: p.send_signal(signal.SIGINT))
+        timer.start()
+        try:
+            sim = run_sim(SimSettings(connect=("127.0.0.1", port), start_pose=tuple(want[0]),
+                                      reply_timeout_s=GENEROUS, max_s=30.0),
+                          reference=want[:, :3])
+            out, err = proc.communicate(timeout=20)
+        finally:
+            timer.cancel()
+            proc.kill()
+        if sim.late == 0:
+            break
     assert proc.returncode == 130, (out, err)
     assert "interrupted (SIGINT)" in err and "stream interrupted" in out
     assert sim.status is SimStatus.STOPPED
@@ -308,3 +319,21 @@ def test_controller_that_never_sends(stretch, tmp_path, capsys) -> None:
 def test_trajectory_faster_than_the_step_limit(stretch, capsys) -> None:
     assert main(["stream", str(stretch(200)), "--max-step-mm", "0.001"]) == 2
     assert "more than the per-cycle limit 0.001 mm (--max-step-mm" in _one_error(capsys)
+
+
+def test_messages_print_plain_numbers(stretch, tmp_path, capsys) -> None:
+    """Issue 26 item 11: a row off the cycle is named with its time as a plain number (numpy 2
+    printed 't_s = np.float64(0.2)'); the step-limit message likewise."""
+    table = read_rsi_csv(stretch(100))
+    m = table.as_matrix()
+    m[50:, 0] += 0.001  # row 50 comes 5 ms after row 49
+    bad = tmp_path / "uneven.csv"
+    from feedopt.export.rsi import RsiTable, write_rsi_csv
+
+    write_rsi_csv(bad, RsiTable.from_matrix(m))
+    assert main(["stream", str(bad), "--listen", "127.0.0.1:0"]) == 2
+    err = _one_error(capsys)
+    assert f"data row 50 (t_s = {float(m[50, 0])!r}) is 5 ms after" in err and "np." not in err
+    assert main(["stream", str(stretch(200)), "--max-step-mm", "0.001"]) == 2
+    err = _one_error(capsys)
+    assert "(t_s = 0.0" in err and "np." not in err

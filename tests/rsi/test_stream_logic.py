@@ -33,22 +33,46 @@ def _run(logic, first: int, count: int, delay: int = 0):
 
 @pytest.mark.parametrize("mode", list(CorrectionMode))
 def test_a_discarded_answer_is_not_built_on(mode) -> None:
-    """The controller's Delay rises by one: it dropped the last answer and still holds the
-    one before; the next answer steps from that, by at most the limit."""
-    limit = 0.05
-    plan = _line_plan(400, 10.0)  # 0.04 mm per cycle
-    logic = CorrectionStream(plan, StreamSettings(mode=mode, max_step_mm=limit))
+    """The controller's Delay rises by one more than the packets left unanswered: it dropped
+    the last answer and still holds the one before. The robot stood still meanwhile, so the
+    next answer neither jumps ahead to keep the clock nor catches up: it resumes from the
+    held row along the path, its speed rising smoothly to the planned one."""
+    v, a = 10.0, 500.0
+    plan = _line_plan(400, v)  # 0.04 mm per cycle
+    logic = CorrectionStream(plan, StreamSettings(mode=mode, max_step_mm=0.05))
     answers = _run(logic, 0, 50)
     held_before = answers[-2].total  # what the controller holds if answers[-1] is dropped
-    # ... the stream then falls behind by 5 packets it never answers (catch-up wanted)
+    # ... the stream then falls behind by 5 packets it never answers
     ans = logic.answer(ControllerPacket(ipoc=4 * 55, rist=START.copy(), delay=6), None, 5)
     np.testing.assert_array_equal(ans.held, held_before)
-    assert np.linalg.norm(ans.total[:3] - held_before[:3]) == pytest.approx(limit)
+    assert ans.phase is Phase.RESUME
+    assert 0.0 <= ans.total[0] - held_before[0] < 0.01 * v * CYCLE  # barely moving yet
+    np.testing.assert_array_equal(ans.total[1:], 0.0)  # on the line
     if mode is CorrectionMode.RELATIVE:  # the increment is taken from what is held
         np.testing.assert_allclose(ans.sent, ans.total - held_before)
     # the controller took that one (Delay unchanged): the next steps from it
     nxt = logic.answer(ControllerPacket(ipoc=4 * 56, rist=START.copy(), delay=6), None)
     np.testing.assert_array_equal(nxt.held, ans.total)
+    more = _run(logic, 57, 40, delay=6)
+    x = np.array([held_before[0], ans.total[0], nxt.total[0]] + [m.total[0] for m in more])
+    speed = np.diff(x) / CYCLE
+    assert np.all(np.diff(speed) >= -1e-6) and speed[-1] == pytest.approx(v, rel=1e-9)
+    assert np.max(np.diff(speed) / CYCLE) <= a * 1.01  # within the stop acceleration
+    assert more[-1].phase is Phase.RUN
+
+
+def test_a_gap_past_the_late_limit_holds_where_the_robot_stands() -> None:
+    """An IPOC gap of 800 cycles near the end (past the end of the trajectory by the clock):
+    the logic resumes from the held row, not from the clock's; a stop requested for that gap
+    holds at the held row at once (the robot stood still), and it is not 'completed'."""
+    plan = _line_plan(300, 10.0)
+    logic = CorrectionStream(plan, StreamSettings())
+    answers = _run(logic, 0, 255)  # handshake + rows 0..249
+    logic.request_stop(StreamStatus.CONTROLLER_GAP)
+    ans = logic.answer(ControllerPacket(ipoc=4 * 1055, rist=START.copy()), None, 799)
+    assert ans.phase is Phase.HOLD and ans.stop and ans.row == 249.0
+    np.testing.assert_array_equal(ans.total, answers[-1].total)
+    assert logic.stop_status is StreamStatus.CONTROLLER_GAP and logic.rows_reached == 250
 
 
 def test_without_delay_the_last_answer_is_assumed_held() -> None:
