@@ -105,11 +105,18 @@ def console_main() -> None:
         os._exit(code)
 
 
+def printable(text: str) -> str:
+    """``text`` with control characters (but newlines and tabs) shown as escapes: a file
+    name or value quoted in a message must not drive the terminal (colours, cursor moves)."""
+    return "".join(c if c in "\n\t" or (c.isprintable() and c != "\x7f")
+                   else repr(c)[1:-1] for c in text)
+
+
 def _dispatch(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"feedopt {args.command}: error: {exc}", file=sys.stderr)
+        print(f"feedopt {args.command}: error: {printable(str(exc))}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into `head` and the like: not an error
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - silence the flush at exit
@@ -124,7 +131,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         if args.debug:
             traceback.print_exc()
         print(
-            f"feedopt {args.command}: internal error: {type(exc).__name__}: {exc}\n"
+            f"feedopt {args.command}: internal error: {type(exc).__name__}: "
+            f"{printable(str(exc))}\n"
             "This is a bug in feedopt; rerun with --debug for the traceback.",
             file=sys.stderr,
         )

@@ -764,11 +764,11 @@ def validate_scenario(scenario_path: str | Path) -> str:
     table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     stock = ""
     if scenario.stock is not None:  # built (bounded) as a run builds it; path beside it refused
-        zmap = check_stock(scenario.stock, lambda rel, what: resolve(base_dir, rel, what), tool,
-                           _sample(path, scenario.path.spacing_mm * MM).position)
+        zmap, notes = check_stock(scenario.stock, lambda rel, what: resolve(base_dir, rel, what),
+                                  tool, _sample(path, scenario.path.spacing_mm * MM).position)
         units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
                  else "")
         stock = (f"; stock {zmap.shape[0]} x {zmap.shape[1]} cells of {zmap.cell / MM:g} mm"
-                 f"{units}")
+                 f"{units}" + "".join(f"\nwarning: {note}" for note in notes))
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
             f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}")

@@ -87,7 +87,13 @@ def _construct_int(loader: StrictLoader, node: Node) -> int:
         raise _refuse(loader, node, f"{excerpt(value)} is not a decimal integer")
     if len(value) > MAX_INT_DIGITS:
         raise _refuse(loader, node, f"an integer of {len(value)} digits")
-    return int(value)
+    number = int(value)
+    try:
+        float(number)  # every number field is used as a float: one beyond it is no number
+    except OverflowError:
+        raise _refuse(loader, node, f"an integer of {len(value)} digits, beyond the largest "
+                      "number feedopt computes with (1.8e308)") from None
+    return number
 
 
 def _construct_float(loader: StrictLoader, node: Node) -> float:

@@ -17,6 +17,7 @@ angles and depths along s.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -70,8 +71,13 @@ def run(args: argparse.Namespace) -> int:
     inputs = [args.scenario, *scenario_input_files(scenario, base_dir)]
     check_data_and_plot(args.out, args.plot, inputs, "engagement.csv", "engagement.png")
     if args.intervals is not None:
-        check_output_file(args.intervals, "--intervals", example="intervals.csv",
-                          inputs=[*inputs, *(f for f in (args.out, args.plot) if f)])
+        target = check_output_file(args.intervals, "--intervals", example="intervals.csv",
+                                   inputs=inputs)
+        for other, what in ((args.out, "--out"), (args.plot, "--plot")):
+            if other is not None and Path(other).resolve() == target:
+                raise InputError(f"{what} and --intervals are the same file {args.intervals}: "
+                                 "give two names (e.g. --out engagement.csv --intervals "
+                                 "intervals.csv)")
     if scenario.stock is None:
         raise InputError(f"{args.scenario}: no stock: section; give stock: {{box_mm: [x0, y0, "
                          "z0, x1, y1, z1]}} (or mesh: part.stl) for the engagement from the "
@@ -84,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
           f"stock {material.before.shape[0]} x {material.before.shape[1]} cells of "
           f"{material.before.cell / MM:g} mm ({material.before.nbytes / 1e6:.2f} MB); removed "
           f"{material.removed_volume / MM**3:.0f} mm^3")
+    for note in material.warnings:
+        print(f"warning: {note}")
     files = []
     if args.out is not None:
         def write(tmp, table=table):

@@ -82,16 +82,17 @@ def apart_text(stock: ZMap, positions: np.ndarray, radius: float) -> str | None:
 
 
 def check_stock(section, resolve: Callable[[str, str], Path], tool: Tool,
-                positions: np.ndarray) -> ZMap:
+                positions: np.ndarray) -> tuple[ZMap, tuple[str, ...]]:
     """What ``feedopt validate`` checks of a ``stock`` section without sweeping: the stock
     builds (bounded, the mesh read and checked) and, unless stock.air_cut, the path's tool
-    tips ``positions`` (W [m]) come near it (InputError as a run gives)."""
+    tips ``positions`` (W [m]) come near it (InputError as a run gives). Returns the stock and
+    the warnings a run would give about it before sweeping (a mesh that looks like metres)."""
     stock = build_stock(section, resolve)
     apart = apart_text(stock, positions, 0.5 * tool.diameter)
     if apart is not None and not section.air_cut:
         raise InputError(f"stock: the path cannot cut the stock: {apart}. Place the stock "
                          "where the path cuts, or set stock.air_cut: true if an air cut is meant")
-    return stock
+    return stock, _units_note(section, stock)
 
 
 def _units_note(section, stock: ZMap) -> tuple[str, ...]:

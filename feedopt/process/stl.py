@@ -31,8 +31,12 @@ MAX_ASCII_STL_BYTES = 128 * 1024**2
 
 _HEADER = 80
 _RECORD = np.dtype([("normal", "<f4", (3,)), ("vertex", "<f4", (3, 3)), ("attribute", "<u2")])
-_VERTEX = re.compile(rb"^[ \t]*vertex[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)[ \t]*\r?$", re.M)
-_FACET = re.compile(rb"^[ \t]*facet\b", re.M)
+# keywords in any case: some exporters write SOLID / FACET / VERTEX
+_VERTEX = re.compile(rb"^[ \t]*vertex[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)[ \t]*\r?$",
+                     re.M | re.I)
+_FACET = re.compile(rb"^[ \t]*facet\b", re.M | re.I)
+#: Largest coordinate magnitude in the file's units (1000 km in mm): beyond it, no stock.
+MAX_COORDINATE = 1e9
 
 
 def read_stl(path: str | Path, what: str = "") -> np.ndarray:
@@ -73,6 +77,13 @@ def read_stl(path: str | Path, what: str = "") -> np.ndarray:
         raise InputError(
             f"{what}: triangle {k} (counting from 0) has a NaN or infinite vertex "
             f"coordinate ({_triangle_text(tri[k])}); every vertex must be a finite number")
+    far = np.abs(tri).max(axis=(1, 2)) > MAX_COORDINATE
+    if far.any():
+        k = int(np.argmax(far))
+        raise InputError(
+            f"{what}: triangle {k} (counting from 0) has a coordinate beyond +-{MAX_COORDINATE:g}"
+            f" ({_triangle_text(tri[k])}): no stock is that large (1000 km in mm); is the file "
+            "damaged or in other units?")
     return tri
 
 
@@ -119,7 +130,7 @@ def _ascii(data: bytes, what: str) -> np.ndarray:
                          "neither an ASCII STL nor a binary STL (its size does not match its "
                          "triangle count)") from None
     found = _VERTEX.findall(data)
-    n_vertex_lines = len(re.findall(rb"^[ \t]*vertex\b", data, re.M))
+    n_vertex_lines = len(re.findall(rb"^[ \t]*vertex\b", data, re.M | re.I))
     if n_vertex_lines != len(found):
         line = _first_bad_vertex_line(data)
         raise InputError(f"{what}: line {line}: a vertex line must be 'vertex x y z'")
@@ -151,7 +162,7 @@ def _line_of_vertex(data: bytes, index: int) -> int:
 
 
 def _first_bad_vertex_line(data: bytes) -> int:
-    for match in re.finditer(rb"^[ \t]*vertex\b.*$", data, re.M):
+    for match in re.finditer(rb"^[ \t]*vertex\b.*$", data, re.M | re.I):
         if not _VERTEX.match(data, match.start()):
             return data.count(b"\n", 0, match.start()) + 1
     return 0  # pragma: no cover - only called when such a line exists

@@ -43,10 +43,16 @@ class Tool:
         return 2.0 * math.pi / self.teeth
 
 
+#: Most cutting edges a tool may have (a large face mill has a few dozen inserts).
+MAX_TEETH = 100
+
+
 def validate_tool(tool: Tool, where: str = "tool") -> None:
     """Raise InputError if a tool field is out of its physical range."""
-    if not (isinstance(tool.teeth, int) and not isinstance(tool.teeth, bool)) or tool.teeth < 1:
-        raise InputError(f"{where}.teeth must be a whole number >= 1, got {tool.teeth!r}")
+    if (not (isinstance(tool.teeth, int) and not isinstance(tool.teeth, bool))
+            or not 1 <= tool.teeth <= MAX_TEETH):
+        raise InputError(f"{where}.teeth must be a whole number from 1 to {MAX_TEETH}, got "
+                         f"{tool.teeth!r}")
     if not (math.isfinite(tool.diameter) and tool.diameter > 0):
         raise InputError(f"{where}.diameter must be > 0 mm, got {tool.diameter / MM:g} mm")
     if not (math.isfinite(tool.helix) and 0.0 <= tool.helix < math.pi / 2):
@@ -81,8 +87,9 @@ def load_tool(path: str | Path) -> Tool:
     teeth = data.get("teeth")
     if teeth is None:
         raise InputError(f"{where}: missing field 'teeth'")
-    if isinstance(teeth, bool) or not isinstance(teeth, int) or teeth < 1:
-        raise InputError(f"{where}.teeth: expected a whole number >= 1, got {teeth!r}")
+    if isinstance(teeth, bool) or not isinstance(teeth, int) or not 1 <= teeth <= MAX_TEETH:
+        raise InputError(f"{where}.teeth: expected a whole number from 1 to {MAX_TEETH} (the "
+                         f"cutting edges or inserts of the tool), got {teeth!r}")
     diameter_mm = number(data, "diameter_mm", where)
     helix_deg = number(data, "helix_deg", where)
     flute_mm = number(data, "flute_length_mm", where)

@@ -378,5 +378,8 @@ def load_summary(path: str | Path) -> dict:
         raise InputError(f"{path}: the JSON is nested too deeply to be a run summary (a run "
                          "writes a few levels)") from None
     except ValueError as exc:  # a key given twice, an integer of thousands of digits
+        if "integer string conversion" in str(exc):
+            raise InputError(f"{path}: holds an integer of more than 4300 digits, which no run "
+                             "writes; the file was edited or damaged") from None
         raise InputError(f"{path}: invalid JSON: {exc}") from None
     return validate_summary(obj, str(path))

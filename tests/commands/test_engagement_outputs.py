@@ -152,3 +152,15 @@ def test_fresh_outputs_are_written(job, capsys, monkeypatch) -> None:
     assert (job / "e.csv").read_text().startswith("s_mm,x_mm")
     assert (job / "i.csv").read_text().startswith("sample,s_mm")
     assert (job / "robot" / "meshes" / "new.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_two_outputs_of_the_same_name_are_one_file_not_an_input(job, capsys, monkeypatch) -> None:
+    """--out x.csv --intervals x.csv (x.csv new): the message says they are the same file,
+    not that x.csv is an input (a hostile re-check found the wrong message)."""
+    monkeypatch.chdir(job)
+    before = _snapshot(job)
+    assert main(["engagement", "csv.yaml", "--out", "x.csv", "--intervals", "x.csv"]) == 2
+    err = capsys.readouterr().err
+    assert "--out and --intervals are the same file x.csv" in err, err
+    assert "input" not in err
+    assert _snapshot(job) == before

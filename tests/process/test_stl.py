@@ -119,3 +119,30 @@ def test_oversized_files_are_refused_before_parsing(tmp_path, monkeypatch):
     monkeypatch.setattr(stl, "MAX_STL_BYTES", 683)
     with pytest.raises(InputError, match="simplify the mesh"):
         read_stl(binary)
+
+
+def test_an_upper_case_ascii_stl_reads_as_the_lower_case_one(tmp_path):
+    """Some exporters write SOLID / FACET / VERTEX: the same triangles, not 'no triangles'."""
+    text = trimesh.exchange.stl.export_stl_ascii(_box())
+    lower, upper = tmp_path / "l.stl", tmp_path / "u.stl"
+    lower.write_text(text)
+    upper.write_text(text.upper())
+    np.testing.assert_array_equal(read_stl(upper), read_stl(lower))
+
+
+@pytest.mark.parametrize("value", [1e308, -3e38, 2e9])
+def test_coordinates_no_stock_has_are_refused_without_numpy_warnings(tmp_path, value):
+    """A vertex at 1e308 overflowed later arithmetic (RuntimeWarnings before the message):
+    beyond 1e9 file units the triangle is named and nothing else is computed."""
+    tri = _box().triangles.copy()
+    tri[5, 1, 0] = value
+    p = tmp_path / "far.stl"
+    facets = ["facet normal 0 0 0\nouter loop\n"
+              + "".join("vertex " + " ".join(repr(float(v)) for v in vertex) + "\n"
+                        for vertex in t) + "endloop\nendfacet\n" for t in tri]
+    p.write_text("solid far\n" + "".join(facets) + "endsolid far\n")
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError, match=r"triangle 5 .* beyond \+-1e\+09"):
+            read_stl(p)

@@ -142,3 +142,19 @@ def test_a_metres_stl_read_as_mm_at_fine_cells_is_warned(stock_scenario, tmp_pat
     assert np.sum(~front.process.material.found.in_air) < 5
     assert any("only 0.22 x 0.06 x 0.0254 mm: if the STL is in metres, set stock.units: m" in w
                for w in front.warnings)
+
+
+def test_validate_and_engagement_print_the_metres_warning(stock_scenario, tmp_path, capsys):
+    """The warning was given by run only; validate and engagement said 'ok' / exit 0 silently
+    (a hostile re-check)."""
+    box = trimesh.creation.box(extents=[0.2032, 0.0508, 0.0254])
+    box.apply_translation([0.1016, -0.034925, -0.0112])
+    box.export(tmp_path / "block_m.stl")
+    scenario = stock_scenario({"mesh": "block_m.stl", "cell_mm": 0.02})
+    note = "if the STL is in metres, set stock.units: m"
+    assert main(["validate", str(scenario)]) == 0
+    out = capsys.readouterr().out
+    assert "ok" in out and "warning: stock.mesh is read in mm and is only" in out
+    assert note in out
+    assert main(["engagement", str(scenario)]) == 0
+    assert note in capsys.readouterr().out
