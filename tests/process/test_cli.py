@@ -136,11 +136,14 @@ def test_calibrate_bad_input(tmp_path, capsys, table_3_2):
 
 def test_forces_table_bound_counts_the_tool_teeth(tmp_path, capsys):
     tool = tmp_path / "many.yaml"
-    tool.write_text("name: many\ndiameter_mm: 19.05\nteeth: 100000\nhelix_deg: 30\n"
+    tool.write_text("name: many\ndiameter_mm: 19.05\nteeth: 100\nhelix_deg: 30\n"
                     "flute_length_mm: 20\n")
-    assert main(BASE + ["--tool", str(tool), "--step-deg", "90", "--axial-slices", "20"]) == 2
+    assert main(BASE + ["--tool", str(tool), "--step-deg", "0.1", "--axial-slices", "20"]) == 2
     err = capsys.readouterr().err
-    assert "(4 angles) x 100000 teeth (tool 'many') x --axial-slices 20 = 8,000,000" in err
+    assert "(3600 angles) x 100 teeth (tool 'many') x --axial-slices 20 = 7,200,000" in err
+    tool.write_text(tool.read_text().replace("teeth: 100", "teeth: 100000"))
+    assert main(BASE + ["--tool", str(tool), "--step-deg", "90", "--axial-slices", "20"]) == 2
+    assert "teeth: expected a whole number from 1 to 100" in capsys.readouterr().err
 
 
 def test_forces_nominal_feed_no_warning(capsys):
