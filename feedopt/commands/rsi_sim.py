@@ -57,7 +57,8 @@ def add_parser(subparsers) -> None:
                    help="PosCorr LowerLim/UpperLim X, Y, Z: the total correction stays within "
                    "+-MM of the pose at RSI_ON (default: with --reference the limits the "
                    "exported host program sets for that trajectory, its range + 5 mm; else "
-                   "RSI's default 5 mm)")
+                   "5 mm, which public notes give as RSI Visual's default; not checked "
+                   "against a KUKA manual)")
     p.add_argument("--limit-deg", type=float, metavar="DEG",
                    help="PosCorr MaxRotAngle (default: from --reference as the host program "
                    "sets it, else 5 deg)")
@@ -67,10 +68,10 @@ def add_parser(subparsers) -> None:
     p.add_argument("--max-rot-deg", type=float, metavar="DEG",
                    help="PosCorrMon MaxRotAngle (default: from --reference, else 6 deg)")
     p.add_argument("--max-speed-mm-s", type=float, default=2000.0, metavar="MM_S",
-                   help="fastest change of the correction (default 2000 mm/s: KSS's largest "
-                   "$VEL.CP)")
+                   help="fastest change of the correction (default 2000 mm/s, the top of the "
+                   "$VEL.CP range our KRL export uses)")
     p.add_argument("--max-speed-deg-s", type=float, default=400.0, metavar="DEG_S",
-                   help="fastest turn of the correction (default 400 deg/s)")
+                   help="fastest turn of the correction (default 400 deg/s, our assumption)")
     p.add_argument("--tracker-to", metavar="HOST:PORT",
                    help="send the true TCP pose here every cycle as 'x,y,z,a,b,c'")
     p.add_argument("--sen-type", default="ImFree", help="expected Sen Type (default ImFree)")

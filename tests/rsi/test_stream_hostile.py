@@ -16,8 +16,6 @@ corner (93 deg over rows 7058-8321), where a chord between distant path points i
 from __future__ import annotations
 
 import socket
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,8 +30,8 @@ from feedopt.rsi.protocol import (
     build_controller_packet,
     parse_sensor_answer,
 )
-from tests.rsi.conftest import ROOT, poses
-from tests.rsi.test_stream import _read_log
+from tests.rsi.conftest import poses
+from tests.rsi.test_stream import _cli_stream, _read_log
 
 FIRST = 1_000_000
 CYCLE_MS = 4
@@ -116,22 +114,12 @@ def _controller_socket() -> socket.socket:
     return sock
 
 
-def _start_stream(args: list[str]) -> tuple[subprocess.Popen, int]:
-    proc = subprocess.Popen([sys.executable, "-m", "feedopt.cli", "stream", *args], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    line = proc.stdout.readline()
-    if "listening on" not in line:
-        proc.kill()
-        raise AssertionError(f"stream did not start: {line!r} {proc.stderr.read()!r}")
-    return proc, int(line.split("listening on ")[1].split(" ")[0].rsplit(":", 1)[1])
-
-
 def _run_case(csv: Path, log: Path, jumps: dict[int, int], extra: list[str] = (),
               hook_factory=None, sock: socket.socket | None = None):
     """Stream ``csv`` against the scripted controller; (exit code, stdout, stderr, run)."""
     want = poses(read_rsi_csv(csv))
     sock = sock or _controller_socket()
-    proc, port = _start_stream([str(csv), "--listen", "127.0.0.1:0", "--log", str(log),
+    proc, port = _cli_stream([str(csv), "--listen", "127.0.0.1:0", "--log", str(log),
                                 *extra])
     try:
         hook = None if hook_factory is None else hook_factory(port)
