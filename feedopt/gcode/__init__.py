@@ -13,6 +13,10 @@ from feedopt.gcode.moves import (
     MoveKind,
     Plane,
     Program,
+    Stop,
+    StopKind,
+    ToolHeader,
+    ToolShape,
     sample_move,
 )
 
@@ -24,6 +28,10 @@ __all__ = [
     "MoveKind",
     "Plane",
     "Program",
+    "Stop",
+    "StopKind",
+    "ToolHeader",
+    "ToolShape",
     "parse_gcode",
     "read_gcode",
     "sample_move",

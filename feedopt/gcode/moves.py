@@ -68,6 +68,75 @@ class Plane(Enum):
 SAME_POINT_MM = 1e-6
 
 
+class StopKind(Enum):
+    """Why the tool stops (feed, acceleration and jerk zero) at a point of the program.
+
+    The reader records ``EXACT`` (a move ending while G61/G61.1 is active, or with G9),
+    ``DWELL`` (G4, held ``hold_s``), ``PROGRAM_STOP`` (M0: the operator presses Start),
+    ``OPTIONAL_STOP`` (M1) and ``TOOL_CHANGE`` (M6); the path adds ``REVERSAL`` (a move that
+    turns back) and ``CORNER`` (a corner the tolerance cannot blend).
+    """
+
+    EXACT = "exact stop"
+    DWELL = "dwell"
+    PROGRAM_STOP = "program stop"
+    OPTIONAL_STOP = "optional stop"
+    TOOL_CHANGE = "tool change"
+    REVERSAL = "reversal"
+    CORNER = "corner"
+
+
+@dataclass(frozen=True)
+class Stop:
+    """A stop of the program between two moves.
+
+    after_move : index in :attr:`Program.moves` of the move the stop follows (-1: before the
+        first move)
+    kind : why (:class:`StopKind`)
+    hold_s : how long the tool is held there [s] (G4's P; 0 for the others)
+    line, n_number, text : the block that asked for it (for an exact stop: the move's block)
+    """
+
+    after_move: int
+    kind: StopKind
+    hold_s: float
+    line: int
+    n_number: int | None
+    text: str
+
+
+class ToolShape(Enum):
+    """Cutter shape named in a program's tool comment."""
+
+    FLAT = "flat end mill"
+    BALL = "ball end mill"
+    BULL = "bull nose end mill"
+    CHAMFER = "chamfer mill"
+    DRILL = "drill"
+    OTHER = "other"
+
+
+@dataclass(frozen=True)
+class ToolHeader:
+    """A tool described in a program comment (Fusion/HSM ``(T1 D=3.175 CR=0. - ZMIN=-5. -
+    flat end mill)``, Mastercam, CAMotics styles).
+
+    number : the T number (None if the comment gives none)
+    diameter_mm, corner_radius_mm : as written, in mm (None where not given)
+    shape : :class:`ToolShape`
+    z_min_mm : the post's ZMIN (deepest point of the tool's operations) in mm, None if absent
+    line, text : where and what was written
+    """
+
+    number: int | None
+    diameter_mm: float | None
+    corner_radius_mm: float | None
+    shape: ToolShape
+    z_min_mm: float | None
+    line: int
+    text: str
+
+
 @dataclass(frozen=True)
 class Move:
     """One motion of the program, in millimetres in the work-offset frame.
@@ -128,6 +197,11 @@ class Move:
     direction: int = 0
     sweep_rad: float = 0.0
     radius_mm: float = 0.0
+    #: path tolerance of G64 P active for this move [mm]; None: the scenario's
+    blend_tolerance_mm: float | None = None
+    #: the start was not known (program start, after M6/G28/G53): its unknown coordinates
+    #: were taken from the end; the path plans an approach through the air to it
+    approach: bool = False
 
     @property
     def normal(self) -> Vec3 | None:
@@ -224,6 +298,13 @@ class Program:
         Name of the program (file path or the ``source`` given to the parser).
     program_number : int or None
         The O number, if any.
+    stops : tuple of Stop
+        Stops the program asks for (G61/G9 exact stops, G4 dwells, M0, M1, M6), in order.
+    tool_headers : tuple of ToolHeader
+        Tools described in the program's comments, in order.
+    resolution_mm : float or None
+        The program's number resolution [mm]: one unit of the last decimal its coordinates
+        are written with (4 decimals in inch: 0.00254 mm); None if no coordinate was read.
     """
 
     moves: tuple[Move, ...]
@@ -233,6 +314,9 @@ class Program:
     warnings: tuple[str, ...]
     source: str
     program_number: int | None = None
+    stops: tuple[Stop, ...] = ()
+    tool_headers: tuple[ToolHeader, ...] = ()
+    resolution_mm: float | None = None
 
     def __len__(self) -> int:
         return len(self.moves)

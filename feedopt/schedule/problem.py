@@ -13,6 +13,26 @@ import numpy as np
 
 
 @dataclass(frozen=True)
+class StopSamples:
+    """Samples where the path stops: feed, acceleration and jerk are zero there, and the
+    tool is held ``hold_s`` (a G4 dwell; 0 for an exact stop, a reversal, M0).
+
+    index : (k,) increasing sample indices (0 and n - 1 allowed: a hold at the start or end)
+    hold_s : (k,) hold duration at each [s], >= 0
+    kind : (k,) why (:class:`feedopt.gcode.moves.StopKind` values)
+    label : (k,) where, for messages (``"line 12 (N120): G4 P1"``)
+    """
+
+    index: np.ndarray
+    hold_s: np.ndarray
+    kind: tuple[str, ...]
+    label: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return int(self.index.size)
+
+
+@dataclass(frozen=True)
 class ScheduleProblem:
     """A time-parameterisation problem along a fixed path.
 
@@ -50,6 +70,10 @@ class ScheduleProblem:
         limit, ``inf`` for none), capped by the joint velocity limits; None for other paths
         (one nominal feed). The ``constant`` law runs one feed and declines such paths; the
         ``programmed`` baseline runs this.
+    stops : StopSamples or None
+        Samples where the trajectory must stop (and hold); None: it stops only at the ends.
+        :func:`feedopt.schedule.laws.plan_law` plans such a problem piece by piece between
+        the stops (:mod:`feedopt.schedule.stops`).
     """
 
     s: np.ndarray
@@ -68,6 +92,7 @@ class ScheduleProblem:
     segment_kind: tuple[str, ...] = ()
     key_point_spacing: float = 0.0
     programmed_feed: np.ndarray | None = None
+    stops: StopSamples | None = None
 
     @property
     def length(self) -> float:
