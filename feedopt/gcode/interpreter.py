@@ -1,75 +1,70 @@
 """Executing lexed G-code blocks with modal state into :class:`~feedopt.gcode.moves.Move` s.
 
 Within a block the words take effect in the RS-274/NGC order: F, S, T, M6, M3/M4/M5, M7-M9,
-plane, units, G40, G43/G49, work offset, G90/G91, G90.1/G91.1, then motion (G28 or G0-G3,
-G53 modifying G0), then M0/M1/M2/M30. Everything outside the supported subset is refused.
+G4 (dwell), plane, units, G40, G43/G49, work offset, G61/G61.1/G64, G90/G91, G90.1/G91.1,
+then motion (G28 or G0-G3, G53 modifying G0), then M0/M1/M2/M30. Everything outside the
+supported subset is refused (:mod:`feedopt.gcode.codes` lists the codes).
+
+Stops (:attr:`Program.stops`): a move ending while G61/G61.1 is active or in a G9 block gets
+an exact stop after it; G4 a dwell, M0/M1 a (optional) program stop after the block's motion;
+M6 a tool change after the moves before its block.
+
+Unknown positions: at the program start and after M6, G28 and G53 the reader does not know
+where the tool is (on the named axes). Rapids from there are not in the move list; a feed line
+(G1) from there takes its unknown start coordinates from its end and is marked
+``approach`` (the path reaches it through the air); an arc from there is refused.
+
+Arc radius check: the start and end radii may differ by ``max(arc_tolerance_mm, 2 sqrt(2) *
+resolution)``, the resolution being one unit of the last decimal the program writes its
+coordinates with (both points and the centre are rounded by half a unit).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from feedopt.errors import InputError
+from feedopt.gcode.codes import G4, G28, G64, G80, MOTION, PLANES, SPINDLE_M, sort_words
+from feedopt.gcode.headers import looks_like_tool, tool_header
 from feedopt.gcode.lexer import Block, Word, lex_line, split_lines, where
-from feedopt.gcode.moves import SAME_POINT_MM, Move, MoveCategory, MoveKind, Plane, Program
+from feedopt.gcode.moves import (
+    SAME_POINT_MM,
+    Move,
+    MoveCategory,
+    MoveKind,
+    Plane,
+    Program,
+    Stop,
+    StopKind,
+)
+from feedopt.gcode.notes import Notes
 from feedopt.textio import read_user_text
 
 MM_PER_INCH = 25.4
+#: Largest difference of two radii that rounding to one unit can make, in units: each end
+#: point and the centre are off by up to half a unit in both plane axes (sqrt(2) / 2 each).
+ROUNDING_RADIUS_UNITS = 2.0 * math.sqrt(2.0)
+#: A G4 P at least this large (and whole) is probably milliseconds when read as seconds.
+DWELL_P_HINT = 100.0
 _NAN3 = (math.nan, math.nan, math.nan)
 _AXES = "XYZ"
 _OFFSETS = "IJK"
-
-# G codes as round(10 * value): G1 -> 10, G90.1 -> 901.
-_MOTION = {0: MoveKind.RAPID, 10: MoveKind.LINE, 20: MoveKind.ARC, 30: MoveKind.ARC}
-_PLANES = {170: Plane.XY, 180: Plane.ZX, 190: Plane.YZ}
-_GROUPS: dict[int, str] = {
-    **{c: "motion" for c in (0, 10, 20, 30, 800)},
-    170: "plane", 180: "plane", 190: "plane",
-    200: "units", 210: "units",
-    900: "distance", 910: "distance",
-    901: "arc distance", 911: "arc distance",
-    940: "feed mode", 970: "spindle mode", 400: "cutter compensation",
-    430: "tool length", 490: "tool length",
-    **{c: "work offset" for c in range(540, 600, 10)},
-    280: "non-modal", 530: "machine coordinates",
-}
-_REFUSED_G: dict[int, str] = {
-    **{c: "cutter radius compensation (G41/G42) is not supported: post-process with "
-          "compensation in the computer (tool-centre path)" for c in (410, 420)},
-    **{c: "canned cycles (G73-G89) are not supported: post-process drilling cycles as "
-          "G0/G1 moves" for c in (730, 740, 760, *range(810, 900, 10))},
-    930: "inverse-time feed (G93) is not supported: post-process with feed per minute (G94)",
-    950: "feed per revolution (G95) is not supported: post-process with feed per minute (G94)",
-    40: "dwell (G4) is not supported",
-    100: "G10 (setting offsets from the program) is not supported",
-    920: "G92 (coordinate system offset) is not supported",
-    300: "G30 (return to second home) is not supported",
-    960: "constant surface speed (G96) is not supported",
-    680: "coordinate rotation (G68) is not supported",
-    510: "scaling (G51) is not supported",
-    160: "polar coordinates (G16) is not supported",
-}
-_SPINDLE_M = {3: 1, 4: -1, 5: 0}
-_KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30}
-_REFUSED_LETTERS = {
-    **{c: "rotary and extra axes (A B C U V W) are not supported: the reader is for 3-axis "
-          "programs" for c in "ABCUVW"},
-    "D": "D words (cutter compensation register) are not supported",
-    "P": "P words (dwell, canned cycles, subprograms, arc turns) are not supported",
-    "Q": "Q words (canned cycles) are not supported",
-    "L": "L words (repeats, subprograms) are not supported",
-    "E": "E words are not supported",
-}
-_HANDLED_LETTERS = set("GMXYZIJKRFSTHNO")
+_COORDINATES = "XYZIJKR"
+Vec3 = tuple[float, float, float]
 
 
-def _gcode_key(word: Word) -> int | None:
-    ten = word.value * 10.0
-    key = round(ten)
-    return key if abs(ten - key) < 1e-6 else None
+@dataclass(frozen=True)
+class _Options:
+    """parse_gcode's options (see there)."""
+
+    arc_absolute: bool
+    arc_tolerance_mm: float
+    block_delete: bool
+    dwell_p_ms: bool
 
 
 @dataclass
@@ -85,66 +80,68 @@ class _State:
     feed_raw: float | None = None
     spindle_rpm: float | None = None
     spindle_direction: int = 0
+    spindle_stopped_at: int | None = None
     next_tool: int | None = None
     tool: int | None = None
     work_offset: str | None = None
     length_offset: int | None = None
-    position: tuple[float, float, float] = _NAN3
+    exact_mode: bool = False
+    blend_tolerance_mm: float | None = None
+    position: Vec3 = _NAN3
     unknown_why: str = "the program start (no G0 to X, Y and Z yet)"
     moved: bool = False
-    units_set_at: int | None = None
 
 
 @dataclass
-class _Notes:
-    """Warnings collected while reading, some grouped by kind."""
+class _RadiusCheck:
+    """An arc whose radii differ by more than the tolerance but less than the resolution
+    allows so far: checked again against the program's final resolution."""
 
-    items: list[str] = field(default_factory=list)
-    omitted: list[int] = field(default_factory=list)
-    zero_length: list[int] = field(default_factory=list)
-    spindle_off: list[int] = field(default_factory=list)
-    deleted: list[int] = field(default_factory=list)
+    mismatch_mm: float
+    block: Block
+    message: Callable[[str], str]
 
-    @staticmethod
-    def _lines(lines: list[int]) -> str:
-        shown = ", ".join(str(n) for n in lines[:10])
-        return shown + (f" and {len(lines) - 10} more" if len(lines) > 10 else "")
 
-    def finish(self) -> tuple[str, ...]:
-        out = list(self.items)
-        if self.deleted:
-            out.append(f"block delete: {len(self.deleted)} line(s) starting with '/' skipped "
-                       f"(lines {self._lines(self.deleted)})")
-        if self.omitted:
-            out.append(f"{len(self.omitted)} rapid(s) from a position the reader does not know "
-                       f"are not in the move list (lines {self._lines(self.omitted)})")
-        if self.zero_length:
-            out.append(f"{len(self.zero_length)} zero-length move(s) dropped "
-                       f"(lines {self._lines(self.zero_length)})")
-        if self.spindle_off:
-            out.append(f"{len(self.spindle_off)} feed move(s) with the spindle stopped "
-                       f"(no M3/M4, or after M5) (lines {self._lines(self.spindle_off)})")
-        return tuple(out)
+@dataclass
+class _Collected:
+    """What the reader gathers besides the moves."""
+
+    stops: list[Stop] = field(default_factory=list)
+    offsets: list[str] = field(default_factory=list)
+    tools: list[int] = field(default_factory=list)
+    tool_comments: list[tuple[int, str]] = field(default_factory=list)
+    radius_checks: list[_RadiusCheck] = field(default_factory=list)
+    decimals: int | None = None
+    arcs: int = 0
+
+
+#: More decimals than this say nothing about a post's rounding (float noise): capped.
+MAX_DECIMALS = 12
+
+
+def _decimals(word: Word) -> int:
+    """Digits written after the decimal point of ``word`` (``X1.250``: 3, ``X12``: 0), at most
+    :data:`MAX_DECIMALS`."""
+    text = word.text
+    return min(len(text) - text.index(".") - 1 if "." in text else 0, MAX_DECIMALS)
 
 
 class _Interpreter:
-    """Runs blocks through the modal state; collects moves and warnings."""
+    """Runs blocks through the modal state; collects moves, stops and warnings."""
 
-    def __init__(self, source: str, arc_centre: str, arc_tolerance_mm: float,
-                 block_delete: bool, start_position: tuple[float, float, float] | None) -> None:
+    def __init__(self, source: str, options: _Options, start_position: Vec3 | None) -> None:
         self.source = source
-        self.tol = arc_tolerance_mm
-        self.block_delete = block_delete
-        self.s = _State(arc_absolute=arc_centre == "absolute")
+        self.opt = options
+        self.s = _State(arc_absolute=options.arc_absolute)
         if start_position is not None:
             self.s.position = (float(start_position[0]), float(start_position[1]),
                                float(start_position[2]))
-        self.notes = _Notes()
+        self.notes = Notes()
         self.moves: list[Move] = []
-        self.offsets: list[str] = []
-        self.tools: list[int] = []
+        self.got = _Collected()
         self.program_number: int | None = None
         self.ended_at: int | None = None
+        self.approach_pending = False
 
     # ----------------------------------------------------------------- helpers
     def _err(self, b: Block, msg: str) -> InputError:
@@ -154,6 +151,30 @@ class _Interpreter:
     def _scale(self) -> float:
         return MM_PER_INCH if self.s.inch else 1.0
 
+    def resolution_mm(self) -> float | None:
+        """One unit of the last decimal of the coordinates read so far [mm]."""
+        if self.got.decimals is None:
+            return None
+        return 10.0 ** -self.got.decimals * self._scale
+
+    def arc_tolerance_mm(self) -> float:
+        """The radius tolerance in force: the option, or the rounding the resolution allows."""
+        res = self.resolution_mm()
+        rounding = 0.0 if res is None else ROUNDING_RADIUS_UNITS * res
+        return max(self.opt.arc_tolerance_mm, rounding)
+
+    def _tolerance_text(self, tol: float) -> str:
+        if tol <= self.opt.arc_tolerance_mm:
+            return (f"tolerance {tol:g} mm: path.arc_tolerance_mm (feedopt path "
+                    "--arc-tolerance)")
+        return (f"tolerance {tol:.4g} mm: 2*sqrt(2) x the program's resolution "
+                f"{self.resolution_mm():g} mm, larger than path.arc_tolerance_mm "
+                f"{self.opt.arc_tolerance_mm:g} mm")
+
+    def _stop(self, b: Block, kind: StopKind, hold_s: float = 0.0) -> None:
+        self.got.stops.append(Stop(after_move=len(self.moves) - 1, kind=kind, hold_s=hold_s,
+                                   line=b.line, n_number=b.n_number, text=b.text))
+
     # ------------------------------------------------------------------ blocks
     def run(self, text: str) -> None:
         """Execute every block of ``text``."""
@@ -162,6 +183,7 @@ class _Interpreter:
         lines = split_lines(text)
         for i, raw in enumerate(lines, start=1):
             b = lex_line(raw, i, self.source)
+            self.got.tool_comments.extend((b.line, c) for c in b.comments if looks_like_tool(c))
             if b.percent:
                 if first_code:
                     percent_open = True
@@ -172,8 +194,8 @@ class _Interpreter:
             if not b.words:
                 continue
             first_code = False
-            if b.block_delete and self.block_delete:
-                self.notes.deleted.append(b.line)
+            if b.block_delete and self.opt.block_delete:
+                self.notes.add("deleted", b.line)
                 continue
             self.block(b)
             if self.ended_at is not None:
@@ -201,58 +223,45 @@ class _Interpreter:
 
     def block(self, b: Block) -> None:
         """Execute one block."""
-        s = self.s
-        gs: dict[str, tuple[int, Word]] = {}
-        ms: list[tuple[int, Word]] = []
-        vals: dict[str, Word] = {}
-        for w in b.words:
-            if w.letter == "G":
-                key = _gcode_key(w)
-                if key in _REFUSED_G:
-                    raise self._err(b, f"{w.text}: {_REFUSED_G[key]}")
-                if key is None or key not in _GROUPS:
-                    raise self._err(b, f"{w.text}: G code not supported by the reader")
-                group = _GROUPS[key]
-                if group in gs:
-                    raise self._err(b, f"{gs[group][1].text} and {w.text}: two G codes of the "
-                                       f"same modal group ({group}) in one block")
-                gs[group] = (key, w)
-            elif w.letter == "M":
-                key = _gcode_key(w)
-                if key in (980, 990):
-                    raise self._err(b, f"{w.text}: subprograms (M98/M99) are not supported")
-                if key is None or key % 10 or key // 10 not in _KNOWN_M:
-                    raise self._err(b, f"{w.text}: M code not supported by the reader")
-                ms.append((key // 10, w))
-            elif w.letter in _REFUSED_LETTERS:
-                raise self._err(b, f"{w.text}: {_REFUSED_LETTERS[w.letter]}")
-            elif w.letter not in _HANDLED_LETTERS:
-                raise self._err(b, f"{w.text}: word {w.letter} is not supported by the reader")
-            elif w.letter == "N":
-                continue
-            else:
-                if w.letter in vals:
-                    raise self._err(b, f"{vals[w.letter].text} and {w.text}: two {w.letter} "
-                                       "words in one block")
-                vals[w.letter] = w
-        mcodes = [m for m, _ in ms]
-        for group, members in (("spindle", (3, 4, 5)), ("stop", (0, 1, 2, 30)),
-                               ("coolant", (7, 8, 9)), ("tool change", (6,))):
-            inside = [w.text for m, w in ms if m in members]
-            if len(inside) > 1:
-                raise self._err(b, f"{' and '.join(inside)}: two M codes of the same group "
-                                   f"({group}) in one block")
-
+        words = sort_words(b, lambda msg: self._err(b, msg))
+        gs, vals = words.gs, dict(words.vals)
+        mcodes = [m for m, _ in words.ms]
         if "O" in vals:
-            w = vals["O"]
-            if self.moves or s.moved or len(b.words) != 1 + (b.n_number is not None):
-                raise self._err(b, f"{w.text}: an O word is only read as the program number "
-                                   "alone on a line before the first move (subprograms are not "
-                                   "supported)")
-            if not w.text[1:].isdigit():
-                raise self._err(b, f"{w.text}: program number must be a whole number")
-            self.program_number = int(w.text[1:])
+            self._program_number(b, vals)
             return
+        self._feed_speed_tool(b, vals)
+        if 6 in mcodes:
+            self._tool_change(b)
+        self._spindle(b, mcodes)
+        if gs.get("non-modal", (0,))[0] == G4:
+            self._dwell(b, vals)
+        self._modes(b, gs, vals)
+        for letter in _COORDINATES:
+            if letter in vals:
+                d = _decimals(vals[letter])
+                self.got.decimals = d if self.got.decimals is None else max(self.got.decimals, d)
+        before = len(self.moves)
+        self._motion(b, gs, vals)
+        if len(self.moves) > before and (self.s.exact_mode or "exact stop" in gs):
+            self._stop(b, StopKind.EXACT)
+        for m, _ in words.ms:
+            if m in (0, 1):
+                self._stop(b, StopKind.PROGRAM_STOP if m == 0 else StopKind.OPTIONAL_STOP)
+            elif m in (2, 30):
+                self.ended_at = b.line
+
+    def _program_number(self, b: Block, vals: dict[str, Word]) -> None:
+        w = vals["O"]
+        if self.moves or self.s.moved or len(b.words) != 1 + (b.n_number is not None):
+            raise self._err(b, f"{w.text}: an O word is only read as the program number alone "
+                               "on a line before the first move (subprograms are not "
+                               "supported)")
+        if not w.text[1:].isdigit():
+            raise self._err(b, f"{w.text}: program number must be a whole number")
+        self.program_number = int(w.text[1:])
+
+    def _feed_speed_tool(self, b: Block, vals: dict[str, Word]) -> None:
+        s = self.s
         if "F" in vals:
             f = vals["F"].value
             if not f > 0:
@@ -267,17 +276,54 @@ class _Interpreter:
             if not w.text[1:].isdigit():
                 raise self._err(b, f"{w.text}: tool number must be a whole number >= 0")
             s.next_tool = int(w.text[1:])
-        if 6 in mcodes:
-            if s.next_tool is None:
-                raise self._err(b, "M6 without a tool selected (no T word before or on the line)")
-            s.tool = s.next_tool
-            s.position = _NAN3
-            s.unknown_why = f"the tool change at line {b.line} (M6 position is machine-specific)"
+
+    def _tool_change(self, b: Block) -> None:
+        s = self.s
+        if s.next_tool is None:
+            raise self._err(b, "M6 without a tool selected (no T word before or on the line)")
+        s.tool = s.next_tool
+        s.position = _NAN3
+        s.unknown_why = f"the tool change at line {b.line} (M6 position is machine-specific)"
+        self._stop(b, StopKind.TOOL_CHANGE)
+
+    def _spindle(self, b: Block, mcodes: list[int]) -> None:
+        s = self.s
         for m in mcodes:
-            if m in _SPINDLE_M:
-                s.spindle_direction = _SPINDLE_M[m]
+            if m in SPINDLE_M:
+                if m == 5 and s.spindle_direction != 0:
+                    s.spindle_stopped_at = b.line
+                elif m != 5:
+                    s.spindle_stopped_at = None
+                s.spindle_direction = SPINDLE_M[m]
+
+    def _dwell(self, b: Block, vals: dict[str, Word]) -> None:
+        """G4 P (seconds, or ms with dwell_p_units ms; other words of the block move after
+        the dwell as in RS-274/NGC) or Fanuc's G4 X (seconds, alone)."""
+        p = vals.get("P")
+        word = p
+        if p is None and "X" in vals:
+            word = vals.pop("X")
+            others = [vals[c].text for c in _COORDINATES if c in vals]
+            if others:
+                raise self._err(b, f"G4 {word.text} (dwell seconds) with {', '.join(others)}: "
+                                   "give the dwell as G4 P<seconds> or put the move on its own "
+                                   "line")
+        if word is None:
+            raise self._err(b, "G4 without P: give the dwell time (G4 P<seconds>, or "
+                               "milliseconds with path.dwell_p_units: ms)")
+        if word.value < 0:
+            raise self._err(b, f"G4 {word.text}: the dwell time must be >= 0")
+        hold = word.value
+        if p is not None and self.opt.dwell_p_ms:
+            hold = word.value / 1000.0
+        elif p is not None and hold >= DWELL_P_HINT and hold == int(hold):
+            self.notes.add("dwell_large", b.line)
+        self._stop(b, StopKind.DWELL, hold)
+
+    def _modes(self, b: Block, gs: dict[str, tuple[int, Word]], vals: dict[str, Word]) -> None:
+        s = self.s
         if "plane" in gs:
-            s.plane = _PLANES[gs["plane"][0]]
+            s.plane = PLANES[gs["plane"][0]]
         if "units" in gs:
             key, w = gs["units"]
             inch = key == 200
@@ -286,15 +332,29 @@ class _Interpreter:
                                    f"supported (the program was {'inch' if s.inch else 'mm'} "
                                    "until here)")
             s.inch = inch
+        self._length_offset(b, gs, vals)
+        if "work offset" in gs:
+            s.work_offset = f"G{gs['work offset'][0] // 10}"
+        if "path control" in gs:
+            self._path_control(b, gs["path control"][0], vals)
+        if "distance" in gs:
+            s.absolute = gs["distance"][0] == 900
+        if "arc distance" in gs:
+            s.arc_absolute = gs["arc distance"][0] == 901
+
+    def _length_offset(self, b: Block, gs: dict[str, tuple[int, Word]],
+                       vals: dict[str, Word]) -> None:
+        s = self.s
         if "tool length" in gs:
-            key, w = gs["tool length"]
+            key, _ = gs["tool length"]
             if key == 430:
-                if "H" not in vals:
-                    raise self._err(b, "G43 without an H word (tool length offset number)")
-                h = vals["H"]
-                if not h.text[1:].isdigit():
+                h = vals.get("H")
+                if h is None:  # LinuxCNC: the offset of the tool in the spindle
+                    s.length_offset = s.tool if s.tool is not None else 0
+                elif not h.text[1:].isdigit():
                     raise self._err(b, f"{h.text}: H must be a whole number >= 0")
-                s.length_offset = int(h.text[1:])
+                else:
+                    s.length_offset = int(h.text[1:])
                 self.notes.items.append(
                     f"line {b.line}: G43 H{s.length_offset} tool length offset recorded, no "
                     "geometric effect (moves are the programmed tool-tip positions)")
@@ -302,107 +362,144 @@ class _Interpreter:
                 s.length_offset = None
         if "H" in vals and gs.get("tool length", (0,))[0] != 430:
             raise self._err(b, f"{vals['H'].text}: H is only read with G43")
-        if "work offset" in gs:
-            s.work_offset = f"G{gs['work offset'][0] // 10}"
-        if "distance" in gs:
-            s.absolute = gs["distance"][0] == 900
-        if "arc distance" in gs:
-            s.arc_absolute = gs["arc distance"][0] == 901
 
-        self._motion(b, gs, vals)
-
-        for m, w in ms:
-            if m in (0, 1):
-                self.notes.items.append(
-                    f"line {b.line}: {'optional ' if m == 1 else ''}program stop {w.text} "
-                    "(not modelled: the moves continue)")
-            elif m in (2, 30):
-                self.ended_at = b.line
+    def _path_control(self, b: Block, key: int, vals: dict[str, Word]) -> None:
+        """G61/G61.1: exact stop mode; G64: blending, G64 P its tolerance for later moves."""
+        s = self.s
+        s.exact_mode = key != G64
+        s.blend_tolerance_mm = None
+        if key != G64:
+            return
+        p = vals.get("P")
+        if p is not None:
+            if p.value < 0:
+                raise self._err(b, f"G64 {p.text}: the path tolerance must be >= 0")
+            if p.value > 0:  # G64 P0 is G64 alone (no limit) as in LinuxCNC
+                s.blend_tolerance_mm = p.value * self._scale
+        if "Q" in vals:
+            self.notes.add("g64_q", b.line)
 
     # ------------------------------------------------------------------ motion
     def _motion(self, b: Block, gs: dict[str, tuple[int, Word]], vals: dict[str, Word]) -> None:
         s = self.s
         axes = {a: vals[a] for a in _AXES if a in vals}
-        axis_text = ", ".join(x.text for x in axes.values())
         offsets = {a: vals[a] for a in _OFFSETS if a in vals}
         radius = vals.get("R")
         if "motion" in gs:
-            key, w = gs["motion"]
-            if key == 800:
+            key, _ = gs["motion"]
+            if key == G80:
                 # G80 cancels canned cycles, which the reader refuses anyway. Fanuc and Haas
                 # keep G0/G1/G2/G3 modal across it (their posts write G80 in the safety line
                 # and continue with bare coordinates); RS-274/NGC would cancel the motion.
                 if axes:
-                    raise self._err(b, f"G80 with axis words ({axis_text}): give G0 or G1")
+                    raise self._err(b, f"G80 with axis words "
+                                       f"({', '.join(x.text for x in axes.values())}): give "
+                                       "G0 or G1")
             else:
-                s.motion = _MOTION[key]
+                s.motion = MOTION[key]
                 s.ccw = key == 30
-        if "non-modal" in gs:  # G28
+        if gs.get("non-modal", (0,))[0] == G28:
             if "motion" in gs or "machine coordinates" in gs:
                 raise self._err(b, "G28 with a motion code or G53 in the same block")
-            self._g28(b, axes)
             if offsets or radius:
                 raise self._err(b, "I, J, K or R with G28")
+            self._g28(b, axes)
             return
         kind = s.motion
-        is_arc = kind is MoveKind.ARC
-        if (offsets or radius is not None) and not is_arc:
+        if (offsets or radius is not None) and kind is not MoveKind.ARC:
             word = (radius or next(iter(offsets.values()))).text
             raise self._err(b, f"{word}: I, J, K and R are only read with G2/G3")
-        if not axes and not (is_arc and (offsets or radius is not None)):
-            if "machine coordinates" in gs:
-                raise self._err(b, "G53 without axis words")
-            return
+        if not axes and not (kind is MoveKind.ARC and (offsets or radius is not None)):
+            return  # G53 without axis words moves nothing
         if kind is None:
-            raise self._err(b, f"axis words ({axis_text}) without "
-                               "an active motion mode (G0, G1, G2, G3): "
-                               + "give one")
+            raise self._err(b, f"axis words ({', '.join(x.text for x in axes.values())}) "
+                               "without an active motion mode (G0, G1, G2, G3): give one")
+        if "machine coordinates" in gs:
+            self._g53(b, axes, kind)
+            return
+        self._move(b, kind, axes, offsets, radius)
+
+    def _target(self, axes: dict[str, Word]) -> Vec3:
+        """Where the axis words send the tool (NaN where that is unknown)."""
+        s = self.s
         sc = self._scale
         start = s.position
-        if "machine coordinates" in gs:
-            if kind is not MoveKind.RAPID:
-                raise self._err(b, "G53 (machine coordinates) is only read with G0")
-            if not s.absolute:
-                raise self._err(b, "G53 in incremental mode (G91)")
-            end = list(start)
-            for a in axes:
-                end[_AXES.index(a)] = math.nan
-            s.position = (end[0], end[1], end[2])
-            s.unknown_why = f"the G53 machine-coordinate move at line {b.line}"
-            self.notes.items.append(
-                f"line {b.line}: G53 rapid to machine coordinates, which the reader does not know:"
-                " not in the move list")
-            s.moved = True
-            return
         target = list(start)
         for a, w in axes.items():
             i = _AXES.index(a)
             target[i] = w.value * sc if s.absolute else start[i] + w.value * sc
-        end = (target[0], target[1], target[2])
+        return (target[0], target[1], target[2])
+
+    def _code(self, kind: MoveKind) -> str:
+        if kind is MoveKind.ARC:
+            return "G3" if self.s.ccw else "G2"
+        return "G1" if kind is MoveKind.LINE else "G0"
+
+    def _move(self, b: Block, kind: MoveKind, axes: dict[str, Word],
+              offsets: dict[str, Word], radius: Word | None) -> None:
+        s = self.s
+        start = s.position
+        end = self._target(axes)
         s.moved = True
-        known = not any(math.isnan(c) for c in start + end)
-        if not known:
-            if kind is MoveKind.RAPID:
-                s.position = end
-                self.notes.omitted.append(b.line)
-                return
-            missing = ", ".join(_AXES[i] for i in range(3)
-                                if math.isnan(start[i]) or math.isnan(end[i]))
-            raise self._err(b, f"{'G1' if kind is MoveKind.LINE else ('G3' if s.ccw else 'G2')}"
-                               f" from a position the reader does not know ({missing} unknown "
-                               f"since {s.unknown_why}): position the tool with G0 X Y Z first")
+        known = self._known_start(b, kind, start, end)
+        if known is None:  # a rapid from an unknown position
+            s.position = end
+            self.notes.add("omitted", b.line)
+            return
+        start, approach = known
         if kind is MoveKind.RAPID:
             self._line(b, start, end, None)
         else:
             if s.feed_raw is None:
                 raise self._err(b, "feed move without a feed rate: no F word before or on this "
                                    "line")
-            feed = s.feed_raw * sc / 60.0
+            feed = s.feed_raw * self._scale / 60.0
             if kind is MoveKind.LINE:
-                self._line(b, start, end, feed)
+                self._line(b, start, end, feed, approach=approach)
             else:
                 self._arc(b, start, end, feed, offsets, radius)
         s.position = end
+
+    def _known_start(self, b: Block, kind: MoveKind, start: Vec3,
+                     end: Vec3) -> tuple[Vec3, bool] | None:
+        """The move's start and whether it is an approach (its unknown coordinates taken from
+        its end); None for a rapid from an unknown position."""
+        unknown = [i for i in range(3) if math.isnan(start[i])]
+        if not unknown:
+            return start, False
+        if kind is MoveKind.RAPID:
+            return None
+        code = self._code(kind)
+        names = ", ".join(_AXES[i] for i in unknown)
+        why = f"{names} unknown since {self.s.unknown_why}"
+        if kind is MoveKind.ARC:
+            raise self._err(b, f"{code} from a position the reader does not know ({why}): an "
+                               "arc's centre needs its start; position the tool with G0 X Y Z "
+                               "(or a G1) first")
+        missing = [_AXES[i] for i in unknown if math.isnan(end[i])]
+        if missing:
+            raise self._err(b, f"{code} from a position the reader does not know ({why}), and "
+                               f"the line does not give {', '.join(missing)} in absolute "
+                               "coordinates: position the tool with G0 X Y Z first")
+        self.notes.add("approach", b.line)
+        filled = tuple(end[i] if math.isnan(start[i]) else start[i] for i in range(3))
+        return (filled[0], filled[1], filled[2]), True
+
+    def _g53(self, b: Block, axes: dict[str, Word], kind: MoveKind) -> None:
+        """G53 G0: to machine coordinates the reader does not know (a retract)."""
+        s = self.s
+        if kind is not MoveKind.RAPID:
+            raise self._err(b, "G53 (machine coordinates) is only read with G0: write G53 G0 "
+                               "(controllers differ on G53 in G1 mode)")
+        if not s.absolute:
+            raise self._err(b, "G53 in incremental mode (G91)")
+        end = list(s.position)
+        for a in axes:
+            end[_AXES.index(a)] = math.nan
+        s.position = (end[0], end[1], end[2])
+        s.unknown_why = f"the G53 machine-coordinate move at line {b.line}"
+        self.notes.add("g53", b.line)
+        s.moved = True
 
     def _g28(self, b: Block, axes: dict[str, Word]) -> None:
         """G28: rapid to the intermediate point, then the named axes go to machine home."""
@@ -410,21 +507,17 @@ class _Interpreter:
         if not axes:
             raise self._err(b, "G28 without axis words: which axes go home is machine-specific; "
                                "name them (e.g. G28 G91 Z0)")
-        sc = self._scale
         start = s.position
-        mid = list(start)
-        for a, w in axes.items():
-            i = _AXES.index(a)
-            mid[i] = w.value * sc if s.absolute else start[i] + w.value * sc
-        mid3 = (mid[0], mid[1], mid[2])
+        mid = self._target(axes)
         s.moved = True
-        if any(math.isnan(c) for c in start + mid3):
-            self.notes.omitted.append(b.line)
+        if any(math.isnan(c) for c in start + mid):
+            self.notes.add("omitted", b.line)
         else:  # G28 G91 Z0 (the usual home return) has no intermediate move: no note
-            self._line(b, start, mid3, None, quiet_if_zero=True)
+            self._line(b, start, mid, None, quiet_if_zero=True)
+        home = list(mid)
         for a in axes:
-            mid[_AXES.index(a)] = math.nan
-        s.position = (mid[0], mid[1], mid[2])
+            home[_AXES.index(a)] = math.nan
+        s.position = (home[0], home[1], home[2])
         s.unknown_why = f"the G28 return to machine home at line {b.line}"
         self.notes.items.append(
             f"line {b.line}: G28 returns {''.join(axes)} to machine home, which the reader does "
@@ -432,21 +525,37 @@ class _Interpreter:
 
     def _common(self, b: Block) -> dict:
         s = self.s
-        if s.work_offset is not None and s.work_offset not in self.offsets:
-            self.offsets.append(s.work_offset)
-        if s.tool is not None and s.tool not in self.tools:
-            self.tools.append(s.tool)
+        got = self.got
+        if s.work_offset is not None and s.work_offset not in got.offsets:
+            got.offsets.append(s.work_offset)
+        if s.tool is not None and s.tool not in got.tools:
+            got.tools.append(s.tool)
+        approach = self.approach_pending
+        self.approach_pending = False
         return dict(spindle_rpm=s.spindle_rpm, spindle_direction=s.spindle_direction,
                     tool=s.tool, work_offset=s.work_offset, length_offset=s.length_offset,
-                    line=b.line, n_number=b.n_number, text=b.text)
+                    line=b.line, n_number=b.n_number, text=b.text,
+                    blend_tolerance_mm=s.blend_tolerance_mm, approach=approach)
 
-    def _line(self, b: Block, start: tuple[float, float, float],
-              end: tuple[float, float, float], feed: float | None,
-              quiet_if_zero: bool = False) -> None:
+    def _check_spindle(self, b: Block, category: MoveCategory) -> None:
+        """A cut after M5 is refused; other feed moves without the spindle are noted."""
+        s = self.s
+        if s.spindle_direction != 0:
+            return
+        if category is MoveCategory.CUT and s.spindle_stopped_at is not None:
+            raise self._err(b, f"cut with the spindle stopped (M5 at line "
+                               f"{s.spindle_stopped_at}): start it with M3 or M4 before this "
+                               "move")
+        self.notes.add("spindle_off", b.line)
+
+    def _line(self, b: Block, start: Vec3, end: Vec3, feed: float | None,
+              quiet_if_zero: bool = False, approach: bool = False) -> None:
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         if math.sqrt(dx * dx + dy * dy + dz * dz) <= SAME_POINT_MM:
-            if not quiet_if_zero:
-                self.notes.zero_length.append(b.line)
+            if approach:
+                self.approach_pending = True
+            elif not quiet_if_zero:
+                self.notes.add("zero_length", b.line)
             return
         if feed is None:
             kind, cat = MoveKind.RAPID, MoveCategory.RAPID
@@ -456,96 +565,143 @@ class _Interpreter:
                 cat = MoveCategory.PLUNGE if dz < 0 else MoveCategory.RETRACT
             else:
                 cat = MoveCategory.CUT
-            if self.s.spindle_direction == 0:
-                self.notes.spindle_off.append(b.line)
+            self._check_spindle(b, cat)
+        if approach:
+            self.approach_pending = True
         self.moves.append(Move(kind, cat, start, end, feed, **self._common(b)))
 
-    def _arc(self, b: Block, start: tuple[float, float, float], end: tuple[float, float, float],
-             feed: float, offsets: dict[str, Word], radius: Word | None) -> None:
+    # -------------------------------------------------------------------- arcs
+    def _radius_check(self, b: Block, mismatch_mm: float,
+                      message: Callable[[str], str]) -> None:
+        """Refuse ``mismatch_mm`` over the tolerance; keep it for the final check if only the
+        resolution read so far allows it."""
+        if mismatch_mm <= self.opt.arc_tolerance_mm:
+            return
+        tol = self.arc_tolerance_mm()
+        if mismatch_mm > tol:
+            raise self._err(b, message(self._tolerance_text(tol)))
+        self.got.radius_checks.append(_RadiusCheck(mismatch_mm, b, message))
+
+    def _centre_r(self, b: Block, code: str, start: Vec3, end: Vec3,
+                  radius: Word) -> tuple[float, float]:
+        """In-plane centre of an R-form arc."""
+        u, v, _ = self.s.plane.value
+        su, sv, eu, ev = start[u], start[v], end[u], end[v]
+        chord = math.hypot(eu - su, ev - sv)
+        r = radius.value * self._scale
+        if r == 0:
+            raise self._err(b, f"{code} {radius.text}: radius must not be 0")
+        if chord <= SAME_POINT_MM:
+            raise self._err(b, f"{code} {radius.text}: start and end are the same point in the "
+                               f"{self.s.plane.gcode} plane; a full circle needs I/J/K, not R")
+        half = chord / 2.0
+        rr = abs(r)
+        h = 0.0
+        if half > rr:
+            self._radius_check(b, half - rr, lambda tol: (
+                f"{code} {radius.text}: radius {rr:.4f} mm is too small for the chord "
+                f"{chord:.4f} mm (end not reachable; {tol})"))
+        else:
+            h = math.sqrt(rr * rr - half * half)
+        direction = 1 if self.s.ccw else -1
+        side = direction * (1 if r > 0 else -1)
+        mu, mv = (su + eu) / 2.0, (sv + ev) / 2.0
+        lu, lv = -(ev - sv) / chord, (eu - su) / chord
+        return mu + side * h * lu, mv + side * h * lv
+
+    def _centre_ijk(self, b: Block, code: str, start: Vec3,
+                    offsets: dict[str, Word]) -> tuple[float, float]:
+        """In-plane centre of an I/J/K arc (incremental from the start, or G90.1 absolute)."""
+        plane = self.s.plane
+        u, v, n = plane.value
+        if not offsets:
+            raise self._err(b, f"{code} without a centre (I, J, K) or a radius (R)")
+        normal_letter = _OFFSETS[n]
+        if normal_letter in offsets and offsets[normal_letter].value != 0:
+            raise self._err(b, f"{offsets[normal_letter].text}: {normal_letter} is not a centre "
+                               f"offset in the {plane.gcode} plane")
+        cc = [0.0, 0.0, 0.0]
+        for i in (u, v):
+            letter = _OFFSETS[i]
+            if self.s.arc_absolute:
+                if letter not in offsets:
+                    raise self._err(b, f"{code} with absolute arc centres (G90.1) needs "
+                                       f"{_OFFSETS[u]} and {_OFFSETS[v]}: {letter} missing")
+                cc[i] = offsets[letter].value * self._scale
+            else:
+                cc[i] = start[i] + (offsets[letter].value * self._scale
+                                    if letter in offsets else 0.0)
+        return cc[u], cc[v]
+
+    def _arc(self, b: Block, start: Vec3, end: Vec3, feed: float, offsets: dict[str, Word],
+             radius: Word | None) -> None:
         s = self.s
         plane = s.plane
         u, v, n = plane.value
-        sc = self._scale
         code = "G3" if s.ccw else "G2"
-        direction = 1 if s.ccw else -1
-        su, sv, eu, ev = start[u], start[v], end[u], end[v]
-        chord = math.hypot(eu - su, ev - sv)
-        full = chord <= SAME_POINT_MM
         if radius is not None:
             if offsets:
                 raise self._err(b, f"{code} with both R and I/J/K: give one")
-            r = radius.value * sc
-            if r == 0:
-                raise self._err(b, f"{code} {radius.text}: radius must not be 0")
-            if full:
-                raise self._err(b, f"{code} {radius.text}: start and end are the same point in "
-                                   f"the {plane.gcode} plane; a full circle needs I/J/K, not R")
-            half = chord / 2.0
-            rr = abs(r)
-            if half > rr:
-                if half - rr > self.tol:
-                    raise self._err(b, f"{code} {radius.text}: radius {rr:.4f} mm is too small "
-                                       f"for the chord {chord:.4f} mm (end not reachable)")
-                h = 0.0
-            else:
-                h = math.sqrt(rr * rr - half * half)
-            side = direction * (1 if r > 0 else -1)
-            mu, mv = (su + eu) / 2.0, (sv + ev) / 2.0
-            lu, lv = -(ev - sv) / chord, (eu - su) / chord
-            cu, cv = mu + side * h * lu, mv + side * h * lv
+            cu, cv = self._centre_r(b, code, start, end, radius)
         else:
-            if not offsets:
-                raise self._err(b, f"{code} without a centre (I, J, K) or a radius (R)")
-            normal_letter = _OFFSETS[n]
-            if normal_letter in offsets and offsets[normal_letter].value != 0:
-                raise self._err(b, f"{offsets[normal_letter].text}: {normal_letter} is not a "
-                                   f"centre offset in the {plane.gcode} plane")
-            cc = [0.0, 0.0, 0.0]
-            for i in (u, v):
-                letter = _OFFSETS[i]
-                if s.arc_absolute:
-                    if letter not in offsets:
-                        raise self._err(b, f"{code} with absolute arc centres (G90.1) needs "
-                                           f"{_OFFSETS[u]} and {_OFFSETS[v]}: {letter} missing")
-                    cc[i] = offsets[letter].value * sc
-                else:
-                    cc[i] = start[i] + (offsets[letter].value * sc if letter in offsets else 0.0)
-            cu, cv = cc[u], cc[v]
+            cu, cv = self._centre_ijk(b, code, start, offsets)
+        su, sv, eu, ev = start[u], start[v], end[u], end[v]
         r0 = math.hypot(su - cu, sv - cv)
         r1 = math.hypot(eu - cu, ev - cv)
         if r0 <= SAME_POINT_MM:
             raise self._err(b, f"{code}: the centre is at the start point (radius 0)")
-        if abs(r0 - r1) > self.tol:
-            raise self._err(b, f"{code}: start and end are not on one circle: start radius "
-                               f"{r0:.4f} mm, end radius {r1:.4f} mm (differ by "
-                               f"{abs(r0 - r1):.4f} mm, tolerance {self.tol:g} mm)")
+        self._radius_check(b, abs(r0 - r1), lambda tol: (
+            f"{code}: start and end are not on one circle: start radius {r0:.4f} mm, end "
+            f"radius {r1:.4f} mm (differ by {abs(r0 - r1):.4f} mm, {tol})"))
         a0 = math.atan2(sv - cv, su - cu)
         a1 = math.atan2(ev - cv, eu - cu)
-        if full:
+        if math.hypot(eu - su, ev - sv) <= SAME_POINT_MM:
             sweep = 2.0 * math.pi
         else:
             sweep = ((a1 - a0) if s.ccw else (a0 - a1)) % (2.0 * math.pi)
         centre = [0.0, 0.0, 0.0]
         centre[u], centre[v], centre[n] = cu, cv, start[n]
-        if s.spindle_direction == 0:
-            self.notes.spindle_off.append(b.line)
+        self._check_spindle(b, MoveCategory.CUT)
+        self.got.arcs += 1
         self.moves.append(Move(
             MoveKind.ARC, MoveCategory.CUT, start, end, feed, **self._common(b),
-            centre=(centre[0], centre[1], centre[2]), plane=plane, direction=direction,
+            centre=(centre[0], centre[1], centre[2]), plane=plane, direction=1 if s.ccw else -1,
             sweep_rad=sweep, radius_mm=r0))
+
+    # ------------------------------------------------------------------ result
+    def _final_arc_checks(self) -> None:
+        """Arcs accepted on the resolution read so far, against the program's resolution; and
+        a note if that resolution widens the tolerance."""
+        tol = self.arc_tolerance_mm()
+        for c in self.got.radius_checks:
+            if c.mismatch_mm > tol:
+                raise self._err(c.block, c.message(self._tolerance_text(tol)))
+        if self.got.arcs and tol > self.opt.arc_tolerance_mm:
+            self.notes.items.append(
+                f"arc radii checked to {tol:.4g} mm, not path.arc_tolerance_mm "
+                f"({self.opt.arc_tolerance_mm:g} mm): the program writes its coordinates to "
+                f"{self.got.decimals} decimal(s) ({self.resolution_mm():g} mm), and rounding "
+                "each end and the centre by half of that moves a radius by up to 2*sqrt(2) x "
+                "as much")
 
     def program(self) -> Program:
         """The result."""
+        self._final_arc_checks()
+        scale = self._scale
+        headers = [tool_header(text, line, scale) for line, text in self.got.tool_comments]
         return Program(moves=tuple(self.moves), units="inch" if self.s.inch else "mm",
-                       work_offsets=tuple(self.offsets), tools=tuple(self.tools),
+                       work_offsets=tuple(self.got.offsets), tools=tuple(self.got.tools),
                        warnings=self.notes.finish(), source=self.source,
-                       program_number=self.program_number)
+                       program_number=self.program_number, stops=tuple(self.got.stops),
+                       tool_headers=tuple(h for h in headers if h is not None),
+                       resolution_mm=self.resolution_mm())
 
 
 def parse_gcode(text: str, source: str = "<G-code>", *,
                 arc_centre: Literal["incremental", "absolute"] = "incremental",
                 arc_tolerance_mm: float = 0.002, block_delete: bool = True,
-                start_position: tuple[float, float, float] | None = None) -> Program:
+                start_position: tuple[float, float, float] | None = None,
+                dwell_p_units: Literal["s", "ms"] = "s") -> Program:
     """Read a G-code program from text.
 
     Parameters
@@ -558,17 +714,25 @@ def parse_gcode(text: str, source: str = "<G-code>", *,
         Meaning of I, J, K until the program says G90.1 (absolute) or G91.1 (incremental, the
         Fanuc default: offsets from the arc start).
     arc_tolerance_mm : float
-        Largest accepted difference between the start and the end radius of an arc [mm].
+        Largest accepted difference between the start and the end radius of an arc [mm]; the
+        reader accepts up to ``2 sqrt(2)`` units of the program's last written decimal if that
+        is more (and says so in the warnings).
     block_delete : bool
         True (the switch on): lines starting with ``/`` are skipped (and listed in the
         warnings); False: they are executed.
     start_position : tuple of 3 float, optional
         Tool position before the program [mm in the work frame]; by default unknown, so moves
-        start being listed once a rapid has given X, Y and Z.
+        start being listed once a rapid has given X, Y and Z (or a G1 as an approach).
+    dwell_p_units : {"s", "ms"}
+        Unit of G4's P word: seconds (RS-274/NGC, LinuxCNC; a whole P of 100 or more is noted
+        in the warnings) or milliseconds (Fanuc posts: P1000 = 1 s). Fanuc's ``G4 X`` is
+        always seconds.
 
     Returns
     -------
     Program
+        Moves in mm, stops, tool comments (:attr:`Program.tool_headers`, their sizes scaled by
+        the program's units), the number resolution and the warnings.
 
     Raises
     ------
@@ -580,7 +744,11 @@ def parse_gcode(text: str, source: str = "<G-code>", *,
         raise ValueError("arc_centre must be 'incremental' or 'absolute'")
     if not arc_tolerance_mm > 0:
         raise ValueError("arc_tolerance_mm must be > 0")
-    it = _Interpreter(source, arc_centre, arc_tolerance_mm, block_delete, start_position)
+    if dwell_p_units not in ("s", "ms"):
+        raise ValueError("dwell_p_units must be 's' or 'ms'")
+    options = _Options(arc_absolute=arc_centre == "absolute", arc_tolerance_mm=arc_tolerance_mm,
+                       block_delete=block_delete, dwell_p_ms=dwell_p_units == "ms")
+    it = _Interpreter(source, options, start_position)
     it.run(text)
     return it.program()
 
@@ -595,3 +763,4 @@ def read_gcode(path: str | Path, **options) -> Program:
     """
     text = read_user_text(path, "G-code program")
     return parse_gcode(text, source=str(path), **options)
+
