@@ -72,7 +72,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--air-tolerance-mm", type=float, default=0.5, metavar="MM",
                    help="program: the same between air moves (default 0.5)")
     p.add_argument("--stock-top", type=float, default=0.0, metavar="MM",
-                   help="program: Z of the stock top; plunges below it are refused (default 0)")
+                   help="program: Z of the stock top; an air link across a tool change, G28 "
+                   "or G53 below it is refused, a plunge below it takes the cutting tolerance "
+                   "(default 0)")
     p.add_argument("--arc-tolerance", type=float, default=0.002, metavar="MM",
                    help="program: largest start/end radius difference of an arc (default "
                    "0.002)")

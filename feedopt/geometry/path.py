@@ -155,6 +155,9 @@ class Path:
         #: per programmed junction, what it got and its deviation from the program (a
         #: :class:`~feedopt.geometry.program_path.JunctionReport`), for program paths
         self.junctions = None
+        #: where the tool stops (a :class:`~feedopt.geometry.stops.StopTable`, or anything
+        #: with an increasing array ``s`` [m]); :meth:`sample` samples every stop exactly
+        self.stops = None
         self._start = np.array([g.s_start for g in segs], dtype=float)
         self._len = np.array([g.length for g in segs], dtype=float)
         self._offset = np.array([g.offset for g in segs], dtype=float)
@@ -196,13 +199,32 @@ class Path:
         return PathPoints(s=s, position=pos, tangent=tan, curvature=curv, dcurvature=dcurv,
                           segment=seg)
 
+    @property
+    def stop_s(self) -> np.ndarray:
+        """(k,) arc lengths of the stops strictly inside (0, length) [m] (empty without)."""
+        if self.stops is None:
+            return np.zeros(0)
+        s = np.asarray(self.stops.s, dtype=float)
+        return s[(s > 1e-12 * self.length) & (s < self.length * (1.0 - 1e-12))]
+
     def sample(self, spacing: float) -> PathPoints:
-        """Uniform samples in s: n = ceil(length / spacing) + 1, both ends included."""
+        """Samples in s, both ends included, no further apart than ``spacing``.
+
+        Without stops they are uniform: n = ceil(length / spacing) + 1. With stops
+        (:attr:`stops`) a sample lies exactly at every stop and the samples are uniform
+        between consecutive stops (each stretch in ceil(stretch / spacing) equal steps). A stop
+        between two segments is where the following one starts, so its sample evaluates as
+        that segment's start (right-sided: the tangent and curvature after the stop).
+        """
         if not (np.isfinite(spacing) and spacing > 0):
             raise InputError(
                 f"sample spacing must be a positive, finite number of mm, got {spacing / MM:g} mm")
-        n = int(np.ceil(self.length / spacing - 1e-9)) + 1
-        return self.evaluate(np.linspace(0.0, self.length, max(n, 2)))
+        inner = self.stop_s
+        if not inner.size:
+            n = int(np.ceil(self.length / spacing - 1e-9)) + 1
+            return self.evaluate(np.linspace(0.0, self.length, max(n, 2)))
+        return self.evaluate(piecewise_uniform(np.concatenate([[0.0], inner, [self.length]]),
+                                               spacing))
 
     def _eval_segments(self, seg: np.ndarray, sl: np.ndarray):
         """Evaluate segments ``seg`` at local arc lengths ``sl`` (clipped to the segment)."""
@@ -219,6 +241,18 @@ class Path:
                 for o, r in zip(out, res, strict=True):
                     o[part] = r
         return tuple(out)
+
+
+def piecewise_uniform(bounds: np.ndarray, spacing: float) -> np.ndarray:
+    """Arc lengths from ``bounds[0]`` to ``bounds[-1]`` including every bound exactly, each
+    stretch between consecutive (increasing) bounds in ceil(stretch / spacing) equal steps."""
+    bounds = np.unique(bounds)
+    width = np.diff(bounds)
+    steps = np.maximum(np.ceil(width / spacing - 1e-9).astype(np.int64), 1)
+    first = np.concatenate([[0], np.cumsum(steps)[:-1]])
+    k = np.arange(int(steps.sum())) - np.repeat(first, steps)
+    s = np.repeat(bounds[:-1], steps) + k * np.repeat(width / steps, steps)
+    return np.append(s, bounds[-1])
 
 
 # --- LIPB construction ----------------------------------------------------------------------

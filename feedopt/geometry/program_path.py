@@ -1,51 +1,68 @@
 """A G-code program as one G2-continuous path, within a stated tolerance of the program.
 
 :func:`program_path` turns a :class:`~feedopt.gcode.moves.Program` into a
-:class:`~feedopt.geometry.path.Path` in five named phases:
+:class:`~feedopt.geometry.path.Path` in six named phases:
 
-1. *check*: one continuous program (no unknown position between moves), at least one cutting
-   move, no plunge straight down into the material (a drilling move the force model does not
-   cover; ramps and helices, which move across the tool axis, are cuts).
+1. *check and link*: at least one cutting move; where the reader lost the tool's position
+   (after M6, G28, G53) an air link straight up to the program's highest point, across and
+   down (:func:`~feedopt.geometry.stops.air_links`); plunges are ordinary moves.
 2. *pieces*: every line (G0/G1) and arc (G2/G3, :mod:`feedopt.geometry.arcs`) becomes a piece;
    runs of short, nearly tangent G1 cut moves (CAM output of free-form curves) become one
    quintic smoothing spline within the tolerance (:mod:`feedopt.geometry.smoothing`) instead
-   of a chain of tiny blends with curvature spikes.
-3. *corners*: line-line corners get the scenario's corner blend (any registered kind, thesis
+   of a chain of tiny blends with curvature spikes. A run never spans a stop: exact stops and
+   tool changes split it, an M0/M1/G4 inside it is refused.
+3. *stops*: the program's stops (G61/G9, G4, M0, M1, M6) and the junctions where a move turns
+   back get no blend and no transition: the pieces meet at the programmed point, where the
+   tool stops (:class:`~feedopt.geometry.stops.StopTable`).
+4. *corners*: line-line corners get the scenario's corner blend (any registered kind, thesis
    3.3), its size the smallest of the one asked for, the largest that fits in half of each
    line, and the largest whose deviation from the two programmed lines is within tolerance.
-4. *transitions*: every junction that is still not G2 (line-arc, arc-arc, spline ends, the
+5. *transitions*: every junction that is still not G2 (line-arc, arc-arc, spline ends, the
    ends of a circular blend, kinks next to arcs) gets a quintic G2 transition
    (:mod:`feedopt.geometry.transitions`) as long as the tolerance allows: its length is
-   shortened until its measured deviation from the program is within tolerance.
-5. *provenance*: every programmed move gets the arc length where it starts on the smoothed
-   path (:class:`MoveTable`), so every sample knows its program line, N number, move
-   category and programmed feed, and the :class:`JunctionReport` gives, per programmed
-   junction, what was done, the G0/G1/G2 jumps of the result and its deviation from the
-   program.
+   shortened until its measured deviation from the program is within tolerance; a junction
+   where none fits becomes a corner stop.
+6. *provenance*: every programmed move (and air-link leg) gets the arc length where it starts
+   on the smoothed path (:class:`MoveTable`), so every sample knows its program line, N
+   number, move category and programmed feed, and the :class:`JunctionReport` gives, per
+   programmed junction, what was done, the G0/G1/G2 jumps of the result and its deviation
+   from the program.
 
-The tolerance applies to junctions next to a cutting move; junctions between air moves
-(rapids, plunges and retracts in air) use the larger air tolerance. Deviations are measured
-on every modified stretch against the programmed geometry (lines exactly, arcs as polylines
-with a sag below 1e-3 of the tolerance), at 65 samples zoomed twice around the largest
-(:func:`zoomed_max`: the distance to the nearer of two moves has a kink at its maximum).
+The tolerance applies to junctions next to a cutting move (a plunge ending below the stock
+top counts as one); a G64 P on the move before a junction (or on the moves of a smoothed run)
+replaces it there. Junctions between air moves (rapids, plunges and retracts in air) use the
+larger air tolerance. Deviations are measured on every modified stretch against the
+programmed geometry (lines exactly, arcs as polylines with a sag below 1e-3 of the
+tolerance), at 65 samples zoomed twice around the largest (:func:`zoomed_max`: the distance
+to the nearer of two moves has a kink at its maximum), all junctions at once.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.gcode.interpreter import where
-from feedopt.gcode.moves import SAME_POINT_MM, Move, MoveCategory, MoveKind, Program
+from feedopt.gcode.moves import SAME_POINT_MM, MoveCategory, MoveKind, Program
 from feedopt.geometry import blends
 from feedopt.geometry.arcs import ARC, arc_params
-from feedopt.geometry.path import COLLINEAR_TOL, REVERSAL_TOL, Path, Segment
+from feedopt.geometry.path import COLLINEAR_TOL, Path, Segment
 from feedopt.geometry.registry import LINE, BlendKind, get_blend
 from feedopt.geometry.smoothing import smooth_chain
+from feedopt.geometry.stops import (
+    StopPoint,
+    StopTable,
+    air_links,
+    corner_stops,
+    program_stop_points,
+    reversal_points,
+    split_runs,
+    stop_junctions,
+    stop_table,
+)
 from feedopt.geometry.transitions import TRANSITION, build_transitions
 from feedopt.units import MM, MM_PER_M
 
@@ -70,8 +87,9 @@ class ProgramPathOptions:
     chain_max_move : G1 cut moves up to this long may be smoothed as a chain [m]
     chain_max_turn : ... if consecutive ones turn by at most this [rad]
     chain_min_moves : ... and at least this many follow each other
-    stock_top : height of the stock's top face in the program frame [m] (a plunge ending
-        below it is refused); None: not checked
+    stock_top : height of the stock's top face in the program frame [m]: a plunge ending
+        below it gets the cutting tolerance, an air link (or the first approach) below it is
+        refused; None: plunges count as air moves and links are not checked
     """
 
     tolerance: float = 0.01 * MM
@@ -91,6 +109,7 @@ class Treatment(Enum):
     BLEND = "blend"  #: a corner blend of the scenario's kind
     TRANSITION = "transition"  #: a quintic G2 transition
     BLEND_TRANSITIONS = "blend+transitions"  #: a G1 blend (circle) and transitions at its ends
+    STOP = "stop"  #: the tool stops there: the pieces meet at the programmed point
 
 
 @dataclass(frozen=True)
@@ -104,6 +123,8 @@ class MoveTable:
     feed : (m,) programmed feed [m/s], NaN for rapids
     spindle_rpm : (m,) last S word [rev/min], NaN before any
     tool : (m,) tool number, -1 before any M6
+    program_move : (m,) index into the program's moves, -1 for the legs of an air link
+        (which carry the line of the move they lead to); None: one row per program move
     """
 
     s_start: np.ndarray
@@ -114,6 +135,7 @@ class MoveTable:
     feed: np.ndarray
     spindle_rpm: np.ndarray
     tool: np.ndarray
+    program_move: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.s_start.size)
@@ -142,7 +164,7 @@ class JunctionReport:
     """Per programmed junction (between moves ``before`` and ``before + 1`` that are not
     inside a smoothed chain): what it got and how far the result is from the program.
 
-    before : (k,) index of the move before the junction
+    before : (k,) index of the move before the junction (in the :class:`MoveTable`)
     s : (k,) arc length of the move boundary on the path [m]
     turn : (k,) programmed turning angle (G1 jump) [rad]
     curvature_jump : (k,) programmed |K_after - K_before| (G2 jump) [1/m]
@@ -150,7 +172,7 @@ class JunctionReport:
     size : (k,) blend size used [m] (NaN without blend)
     transition_length : (k,) arc length of the transition(s) [m] (NaN without)
     deviation : (k,) largest distance of the modified stretch from the program [m]
-    tolerance : (k,) the tolerance that applied [m]
+    tolerance : (k,) the tolerance that applied [m] (a G64 P where the program set one)
     g0, g1, g2 : (k,) largest G0 [m], G1, G2 [1/m] jump of the result over the junction
     """
 
@@ -217,13 +239,15 @@ class ChainReport:
 
 @dataclass(frozen=True, eq=False)
 class ProgramPath:
-    """The path of a program and how it was made."""
+    """The path of a program and how it was made: ``stops`` lists where the tool stops
+    (also set as ``path.stops``, which :meth:`Path.sample` samples exactly)."""
 
     path: Path
     moves: MoveTable
     junctions: JunctionReport
     chains: tuple[ChainReport, ...]
     warnings: tuple[str, ...] = ()
+    stops: StopTable = field(default_factory=StopTable.empty)
 
 
 def _opt(v: float) -> str:
@@ -233,36 +257,12 @@ def _opt(v: float) -> str:
 # --- 1. check ------------------------------------------------------------------------------
 
 
-def _label(program: Program, m: Move) -> str:
-    return where(program.source, m.line, m.n_number)
-
-
-def check_program(program: Program, stock_top: float | None) -> None:
-    """InputError for a program that cannot become one path: none or only air moves, gaps
-    where the position is unknown, a plunge straight down into the material."""
-    moves = program.moves
-    if not any(m.category is MoveCategory.CUT for m in moves):
+def check_program(program: Program) -> None:
+    """InputError for a program with nothing to plan: no move, or only air moves. (Gaps
+    become air links, plunges ordinary moves: the process stage models them.)"""
+    if not any(m.category is MoveCategory.CUT for m in program.moves):
         raise InputError(f"{program.source}: the program has no cutting move (G1/G2/G3 across "
                          "the tool axis); there is nothing to plan")
-    starts, ends = program.starts, program.ends
-    gap = np.linalg.norm(starts[1:] - ends[:-1], axis=1)
-    bad = np.flatnonzero(gap > SAME_POINT_MM)
-    if bad.size:
-        m = moves[bad[0] + 1]
-        raise InputError(
-            f"{_label(program, m)}: the tool position before this move is unknown (after a "
-            f"tool change, G28 or G53 on line {moves[bad[0]].line} or later); feedopt plans "
-            "one continuous path: move to a known X, Y, Z with G0 before cutting again, or "
-            "split the program")
-    if stock_top is not None:
-        top = stock_top / MM
-        for m in moves:
-            if m.category is MoveCategory.PLUNGE and m.end[2] < top - SAME_POINT_MM:
-                raise InputError(
-                    f"{_label(program, m)}: {m.text.strip()!r} plunges straight down to Z"
-                    f"{m.end[2]:g} mm, below the stock top (Z{top:g} mm): a drilling move the "
-                    "milling force model does not cover; enter the material by a ramp (G1 with "
-                    "X/Y and Z) or a helix (G2/G3 with Z)")
 
 
 # --- 2. pieces -------------------------------------------------------------------------------
@@ -323,18 +323,22 @@ def _chain_runs(program: Program, opts: ProgramPathOptions) -> list[tuple[int, i
     return runs
 
 
-def _pieces(program: Program, opts: ProgramPathOptions) -> list[_Piece]:
-    runs = {first: last for first, last in _chain_runs(program, opts)}
+def _pieces(program: Program, opts: ProgramPathOptions, points: list[StopPoint],
+            g64_p: np.ndarray) -> list[_Piece]:
+    """The pieces in order: chains (split at stops) smoothed within the smallest G64 P of
+    their moves (``opts.tolerance`` without), every other move a line or an arc."""
+    runs = {first: last for first, last in split_runs(_chain_runs(program, opts), points,
+                                                       program, opts.chain_min_moves)}
     pieces: list[_Piece] = []
     moves = program.moves
-    sag = 1e-3 * opts.tolerance
+    sag = 1e-3 * min(opts.tolerance, _run_tolerance(g64_p, opts))
     i = 0
     while i < len(moves):
         m = moves[i]
         if i in runs:
             last = runs[i]
             pts = np.vstack([program.starts[i], program.ends[i:last + 1]]) * MM
-            chain = smooth_chain(pts, opts.tolerance)
+            chain = smooth_chain(pts, _run_tolerance(g64_p[i:last + 1], opts))
             seg_len = np.linalg.norm(np.diff(pts, axis=0), axis=1)
             report = ChainReport(first_move=i, moves=last - i + 1, first_line=m.line,
                                  last_line=moves[last].line, length=chain.length,
@@ -580,16 +584,31 @@ def _with_transitions(stretches: list[_Stretch], path: Path, at: np.ndarray,
 # --- 5. deviation and provenance -----------------------------------------------------------
 
 
-def _polyline_distance(x: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of points x (q, 3) to the polyline ``poly`` (p, 3)."""
-    if len(poly) == 1:
-        return np.linalg.norm(x - poly[0], axis=1)
-    a, b = poly[:-1], poly[1:]
+def _segment_distance(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance of points x (m, q, 3) to the nearest of the segments a -> b (m, k, 3) of
+    their row (a zero-length segment is its point)."""
     ab = b - a
-    den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    t = np.clip(np.einsum("qij,ij->qi", x[:, None, :] - a[None], ab) / den, 0.0, 1.0)
-    near = a[None] + t[..., None] * ab[None]
-    return np.linalg.norm(x[:, None, :] - near, axis=2).min(axis=1)
+    den = np.maximum(np.einsum("mij,mij->mi", ab, ab), 1e-300)
+    t = np.clip(np.einsum("mqij,mij->mqi", x[:, :, None, :] - a[:, None], ab)
+                / den[:, None], 0.0, 1.0)
+    near = a[:, None] + t[..., None] * ab[:, None]
+    return np.linalg.norm(x[:, :, None, :] - near, axis=3).min(axis=2)
+
+
+def _segments(polys: list[list[np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """The segments of each row's polylines (a one-point polyline: a zero-length segment) as
+    (m, k, 3) start and end arrays, padded with zero-length segments on a row's first point
+    (which change no distance)."""
+    rows = [[(p[:-1], p[1:]) if len(p) > 1 else (p, p) for p in row] for row in polys]
+    k = max(sum(len(a) for a, _ in row) for row in rows)
+    start = np.empty((len(rows), k, 3))
+    end = np.empty((len(rows), k, 3))
+    for r, row in enumerate(rows):
+        a = np.concatenate([x for x, _ in row])
+        b = np.concatenate([y for _, y in row])
+        start[r, :len(a)], end[r, :len(a)] = a, b
+        start[r, len(a):] = end[r, len(a):] = a[0]
+    return start, end
 
 
 def _window(piece: _Piece, reach: float, at_end: bool) -> np.ndarray:
@@ -613,71 +632,194 @@ def _regions(stretches: list[_Stretch]) -> dict[int, tuple[int, int]]:
     return out
 
 
-def _deviations(path: Path, stretches: list[_Stretch], regions: dict[int, tuple[int, int]],
-                pieces: list[_Piece]) -> dict[int, tuple[float, float, float]]:
-    """Per treated junction: (deviation [m], s of the point nearest the programmed junction
-    point [m], s_lo) of its modified stretch."""
-    starts = path.segment_start
-    lens = np.array([x.length for x in stretches])
-    out = {}
-    for j, (lo, hi) in regions.items():
-        s_lo, s_hi = starts[lo], starts[hi] + lens[hi]
-        reach = 2.0 * (s_hi - s_lo) + 1e-9
-        poly_a = _window(pieces[j], reach, at_end=True)
-        poly_b = _window(pieces[j + 1], reach, at_end=False)
-
-        def distance(s: np.ndarray, poly_a=poly_a, poly_b=poly_b) -> np.ndarray:
-            pts = path.evaluate(s.ravel()).position
-            return np.minimum(_polyline_distance(pts, poly_a),
-                              _polyline_distance(pts, poly_b))[None, :]
-
-        dev, _ = zoomed_max(distance, np.array([s_lo]), np.array([s_hi]))
-        corner = pieces[j + 1].polyline[0]
-        s = np.linspace(s_lo, s_hi, DEVIATION_SAMPLES + 1)
-        s_near = s[np.argmin(np.linalg.norm(path.evaluate(s).position - corner, axis=1))]
-        out[j] = (float(dev[0]), float(s_near), float(s_lo))
+def _batches(sizes: np.ndarray, budget: int = 1 << 21) -> list[np.ndarray]:
+    """Row indices in batches of similar polyline sizes (within a factor 1.25, so padding
+    to the largest costs little), each at most ``budget`` rows x samples x segments."""
+    order = np.argsort(sizes, kind="stable")
+    bucket = np.floor(np.log(np.maximum(sizes[order], 1)) / np.log(1.25)).astype(int)
+    out = []
+    for rows in np.split(order, np.flatnonzero(np.diff(bucket)) + 1):
+        per = max(1, budget // ((DEVIATION_SAMPLES + 1) * int(sizes[rows].max())))
+        out += [rows[lo:lo + per] for lo in range(0, rows.size, per)]
     return out
 
 
-def _tolerances(program: Program, pieces: list[_Piece], opts: ProgramPathOptions) -> np.ndarray:
-    """Tolerance per junction between pieces: the cutting one next to a cut move."""
-    cut = np.array([m.category is MoveCategory.CUT for m in program.moves])
+def _deviations(path: Path, stretches: list[_Stretch], regions: dict[int, tuple[int, int]],
+                pieces: list[_Piece]) -> dict[int, tuple[float, float, float]]:
+    """Per treated junction: (deviation [m], s of the point nearest the programmed junction
+    point [m], s_lo) of its modified stretch; all junctions measured together."""
+    if not regions:
+        return {}
+    js = np.array(list(regions), dtype=np.intp)
+    bounds = np.array([regions[int(j)] for j in js])
+    starts = path.segment_start
+    lens = np.array([x.length for x in stretches])
+    s_lo, s_hi = starts[bounds[:, 0]], starts[bounds[:, 1]] + lens[bounds[:, 1]]
+    reach = 2.0 * (s_hi - s_lo) + 1e-9
+    poly_a = [_window(pieces[j], r, at_end=True) for j, r in zip(js, reach, strict=True)]
+    poly_b = [_window(pieces[j + 1], r, at_end=False) for j, r in zip(js, reach, strict=True)]
+    corner = np.array([pieces[j + 1].polyline[0] for j in js])
+    dev = np.empty(js.size)
+    s_near = np.empty(js.size)
+    sizes = np.array([len(a) + len(b) for a, b in zip(poly_a, poly_b, strict=True)])
+    grid = np.linspace(0.0, 1.0, DEVIATION_SAMPLES + 1)
+    for rows in _batches(sizes):
+        seg_a, seg_b = _segments([[poly_a[r], poly_b[r]] for r in rows])
+
+        def distance(s: np.ndarray, seg_a=seg_a, seg_b=seg_b) -> np.ndarray:
+            pts = path.evaluate(s.ravel()).position.reshape(*s.shape, 3)
+            return _segment_distance(pts, seg_a, seg_b)
+
+        dev[rows] = zoomed_max(distance, s_lo[rows], s_hi[rows])[0]
+        s = s_lo[rows, None] + grid[None, :] * (s_hi - s_lo)[rows, None]
+        pos = path.evaluate(s.ravel()).position.reshape(*s.shape, 3)
+        near = np.argmin(np.linalg.norm(pos - corner[rows, None], axis=2), axis=1)
+        s_near[rows] = s[np.arange(rows.size), near]
+    return {int(j): (float(dev[k]), float(s_near[k]), float(s_lo[k]))
+            for k, j in enumerate(js)}
+
+
+def _g64_p(program: Program) -> np.ndarray:
+    """Per move, the G64 P active for it [m], NaN where none is."""
+    return np.array([math.nan if m.blend_tolerance_mm is None else m.blend_tolerance_mm * MM
+                     for m in program.moves], dtype=float)
+
+
+def _run_tolerance(p: np.ndarray, opts: ProgramPathOptions) -> float:
+    """The tolerance of moves with G64 P ``p`` [m] (NaN: none) smoothed as one: the
+    smallest P, ``opts.tolerance`` if none has one."""
+    p = p[~np.isnan(p)]
+    return float(p.min()) if p.size else opts.tolerance
+
+
+def _cut_tolerance(p: np.ndarray, opts: ProgramPathOptions) -> np.ndarray:
+    """The cutting tolerance where the G64 P ``p`` [m] applies: P, else ``opts.tolerance``."""
+    return np.where(np.isnan(p), opts.tolerance, p)
+
+
+def _tolerances(program: Program, pieces: list[_Piece], opts: ProgramPathOptions,
+                g64_p: np.ndarray) -> np.ndarray:
+    """Tolerance per junction between pieces: the cutting one next to a cut move or a plunge
+    ending below the stock top, the air tolerance elsewhere. As in LinuxCNC a junction takes
+    the smaller G64 P of its two moves (a move without one does not limit it); with none,
+    ``opts.tolerance``."""
+    cut = program.categories == MoveCategory.CUT.value
+    if opts.stock_top is not None:
+        below = program.ends[:, 2] < opts.stock_top / MM - SAME_POINT_MM
+        cut = cut | ((program.categories == MoveCategory.PLUNGE.value) & below)
     last = np.array([p.first_move + p.n_moves - 1 for p in pieces])
     first = np.array([p.first_move for p in pieces])
     near_cut = cut[last[:-1]] | cut[first[1:]]
-    return np.where(near_cut, opts.tolerance, opts.air_tolerance)
+    p = np.fmin(g64_p[last[:-1]], g64_p[first[1:]])
+    return np.where(near_cut, _cut_tolerance(p, opts), opts.air_tolerance)
 
 
 def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
-    """The G2 path of ``program`` (moves in mm, program frame) within ``opts`` tolerances.
+    """The G2 path of ``program`` (moves in mm, program frame) within ``opts`` tolerances,
+    the tool stopping where the program asks, where a move turns back and where no G2
+    transition fits (:attr:`ProgramPath.stops`).
 
-    Raises InputError for programs that cannot become one path (:func:`check_program`), a
-    direction reversal between two moves, a scenario blend of "none" (a program path needs
-    G2 corners) and junctions whose tolerance cannot be met.
+    Raises InputError for programs with nothing to cut (:func:`check_program`), an air link
+    below the stock top, an M0/M1/G4 inside a smoothed run and a scenario blend of "none" (a
+    program path needs G2 corners).
     """
-    check_program(program, opts.stock_top)
+    check_program(program)
     kind = get_blend(opts.blend)
     if kind is None:
         raise InputError("path.blend: a program path is made G2 at every corner; choose a "
                          "blend kind (varying_radius, bezier5, ...), not none")
-    pieces = _pieces(program, opts)
+    top = None if opts.stock_top is None else opts.stock_top / MM
+    linked, program_move, link_notes = air_links(program, top)
+    g64_p = _g64_p(linked)
+    points = program_stop_points(linked)
+    pieces = _pieces(linked, opts, points, g64_p)
     base = _path_of(pieces)
+    tol = _tolerances(linked, pieces, opts, g64_p)
+    turn, jump = _programmed_jumps(base, pieces)
+    last = np.array([_last_move(p) for p in pieces])
+    points += reversal_points(linked, last, turn)
+    built = _assemble(pieces, base, kind, opts, tol, turn, stop_junctions(last, points))
+    corners, corner_notes = corner_stops(linked, last, built.failed, tol)
+    points += corners
+    moves = _move_table(linked, pieces, built.stretches, built.path, built.dev, program_move)
+    report = _junction_report(pieces, built, turn, jump, tol, moves)
+    stops = stop_table(points, moves.s_start, built.path.length)
+    path = Path(built.path.segments, moves=moves)
+    path.stops = stops
+    chains = tuple(p.chain for p in pieces if p.chain is not None)
+    warnings = [*link_notes, *corner_notes]
+    if chains:
+        warnings.append(
+            f"{len(chains)} run(s) of short G1 moves ({sum(c.moves for c in chains)} moves) "
+            f"smoothed into quintic splines within {opts.tolerance / MM:g} mm"
+            + ("" if np.isnan(g64_p).all() else " (or the G64 P in force)")
+            + f" (largest deviation {max(c.deviation for c in chains) / MM:.3g} mm)")
+    inside = (stops.s > 0.0) & (stops.s < built.path.length)
+    if np.any(inside | (stops.hold_s > 0)):  # not just the ends, where the tool is at rest
+        shown = "; ".join(stops.label[:5]) + (f"; ... ({len(stops) - 5} more)"
+                                               if len(stops) > 5 else "")
+        warnings.append(f"the tool stops on the path: {stops.summary()}: {shown}")
+    return ProgramPath(path, moves, report, chains, tuple(warnings), stops)
+
+
+def _last_move(piece: _Piece) -> int:
+    return piece.first_move + piece.n_moves - 1
+
+
+def _programmed_jumps(base: Path, pieces: list[_Piece]) -> tuple[np.ndarray, np.ndarray]:
+    """Turn [rad] and curvature jump [1/m] of the programmed geometry at every junction."""
     m = len(pieces)
-    tol = _tolerances(program, pieces, opts)
     j_all = np.arange(m - 1)
-    lens = np.array([p.length for p in pieces])
-    end = _states(base, j_all, lens[:-1])
+    end = _states(base, j_all, np.array([p.length for p in pieces[:-1]]))
     start = _states(base, j_all + 1, np.zeros(m - 1))
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", end.t, start.t), -1.0, 1.0))
-    jump = np.linalg.norm(start.k - end.k, axis=1)
-    _refuse_reversals(program, pieces, turn)
+    return turn, np.linalg.norm(start.k - end.k, axis=1)
+
+
+@dataclass
+class _Built:
+    """The assembled path: its stretches, the path, per treated junction its deviation
+    (:func:`_deviations`), the corner blends, the junctions where the tool stops, and those
+    that became corner stops (junction -> best deviation [m])."""
+
+    stretches: list[_Stretch]
+    path: Path
+    dev: dict[int, tuple[float, float, float]]
+    corners: _Corner
+    stop_j: np.ndarray
+    failed: dict[int, float]
+
+
+def _assemble(pieces: list[_Piece], base: Path, kind: BlendKind, opts: ProgramPathOptions,
+              tol: np.ndarray, turn: np.ndarray, stop_j: np.ndarray) -> _Built:
+    """Corners and transitions everywhere but at stops; a junction where no transition fits
+    the tolerance becomes a stop and the path is built again without it."""
+    stop_j = stop_j.copy()
+    failed: dict[int, float] = {}
     is_line = np.array([p.kind == LINE for p in pieces])
-    corner_j = j_all[is_line[:-1] & is_line[1:] & (turn >= COLLINEAR_TOL)]
-    corners = _corners(kind, opts.blend_size, pieces, base, corner_j, tol)
-    stretches0 = _trimmed_pieces(pieces, corners)
-    path0 = _stretch_path(stretches0)
-    at, _, _ = _non_g2(path0, stretches0)
-    junction_of = np.array([_junction_of(stretches0, i) for i in at], dtype=int)
+    while True:
+        corner_j = np.flatnonzero(is_line[:-1] & is_line[1:] & (turn >= COLLINEAR_TOL)
+                                  & ~stop_j)
+        corners = _corners(kind, opts.blend_size, pieces, base, corner_j, tol)
+        stretches0 = _trimmed_pieces(pieces, corners)
+        path0 = _stretch_path(stretches0)
+        at, _, _ = _non_g2(path0, stretches0)
+        junction_of = np.array([_junction_of(stretches0, i) for i in at], dtype=int)
+        keep = ~stop_j[junction_of]
+        stretches, path, dev, over = _fit_transitions(
+            stretches0, path0, at[keep], junction_of[keep], tol, turn, pieces)
+        if not over.size or not over.any():
+            return _Built(stretches, path, dev, corners, stop_j, failed)
+        for j in np.unique(junction_of[keep][over]).tolist():
+            failed[j] = dev[j][0]
+            stop_j[j] = True
+
+
+def _fit_transitions(stretches0: list[_Stretch], path0: Path, at: np.ndarray,
+                     junction_of: np.ndarray, tol: np.ndarray, turn: np.ndarray,
+                     pieces: list[_Piece]):
+    """Transitions after stretches ``at``, shortened until each is within the tolerance of
+    its junction: (stretches, path, deviations, which are still over it)."""
     scale = np.ones(at.size)
     for _round in range(MAX_ROUNDS):
         stretches = _with_transitions(stretches0, path0, at, scale, junction_of)
@@ -694,26 +836,8 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
         length = {x.junction: x.length for x in stretches if x.kind == TRANSITION}
         if any(o and length.get(int(j), 0.0) * f < MIN_TRANSITION
                for o, j, f in zip(over, junction_of, factor, strict=True)):
-            break  # too short to build reliably: refused below
-    if over.any():
-        k = int(np.flatnonzero(over)[0])
-        j = int(junction_of[k])
-        raise InputError(
-            f"{_label(program, program.moves[pieces[j + 1].first_move])}: no G2 transition "
-            f"within the tolerance {tol[j] / MM:g} mm fits the junction with the move before "
-            f"(best {dev[j][0] / MM:.3g} mm); raise path.tolerance_mm")
-    moves = _move_table(program, pieces, stretches, path, dev)
-    report = _junction_report(program, pieces, stretches, path, corners, dev, turn, jump, tol,
-                              moves)
-    chains = tuple(p.chain for p in pieces if p.chain is not None)
-    warnings = []
-    if chains:
-        warnings.append(
-            f"{len(chains)} run(s) of short G1 moves ({sum(c.moves for c in chains)} moves) "
-            f"smoothed into quintic splines within {opts.tolerance / MM:g} mm (largest "
-            f"deviation {max(c.deviation for c in chains) / MM:.3g} mm)")
-    return ProgramPath(Path(path.segments, moves=moves), moves, report, chains,
-                       tuple(warnings))
+            break  # too short to build reliably: the junction becomes a stop
+    return stretches, path, dev, over
 
 
 def segment_labels(path: Path) -> list[str]:
@@ -736,21 +860,10 @@ def _junction_of(stretches: list[_Stretch], i: int) -> int:
     return a.piece
 
 
-def _refuse_reversals(program: Program, pieces: list[_Piece], turn: np.ndarray) -> None:
-    rev = np.flatnonzero(turn > np.pi - REVERSAL_TOL)
-    if rev.size:
-        j = int(rev[0])
-        after = program.moves[pieces[j + 1].first_move]
-        before = program.moves[pieces[j].first_move + pieces[j].n_moves - 1]
-        raise InputError(
-            f"{_label(program, after)}: the move reverses the direction of line {before.line} "
-            f"(turns {math.degrees(turn[j]):.3f} deg); the tool would have to stop there and "
-            "feedopt plans one path without stops: insert a move across (e.g. a short "
-            "sideways G1) or split the program there")
-
-
 def _move_table(program: Program, pieces: list[_Piece], stretches: list[_Stretch],
-                path: Path, dev: dict) -> MoveTable:
+                path: Path, dev: dict, program_move: np.ndarray) -> MoveTable:
+    """Where every move starts on the path: a treated junction at the point of its modified
+    stretch nearest the programmed corner, any other exactly at its segment boundary."""
     starts = path.segment_start
     s_start = np.zeros(len(program.moves))
     for i, x in enumerate(stretches):
@@ -777,13 +890,15 @@ def _move_table(program: Program, pieces: list[_Piece], stretches: list[_Stretch
         spindle_rpm=np.array([math.nan if m.spindle_rpm is None else m.spindle_rpm
                               for m in mv], dtype=float),
         tool=np.array([-1 if m.tool is None else m.tool for m in mv], dtype=np.int64),
+        program_move=program_move,
     )
 
 
-def _junction_report(program, pieces, stretches, path, corners, dev, turn, jump, tol,
-                     moves) -> JunctionReport:
+def _junction_report(pieces: list[_Piece], built: _Built, turn: np.ndarray, jump: np.ndarray,
+                     tol: np.ndarray, moves: MoveTable) -> JunctionReport:
     from feedopt.geometry.continuity import continuity_report
 
+    stretches, path, corners, dev = built.stretches, built.path, built.corners, built.dev
     m = len(pieces)
     cont = continuity_report(path) if len(path.segments) > 1 else None
     # stretch junction i lies between stretch i and i+1: map it to a programmed junction
@@ -809,7 +924,8 @@ def _junction_report(program, pieces, stretches, path, corners, dev, turn, jump,
     for j in range(m - 1):
         blend = np.isfinite(size[j])
         trans = np.isfinite(trans_len[j])
-        treatment.append((Treatment.BLEND_TRANSITIONS if blend and trans else
+        treatment.append((Treatment.STOP if built.stop_j[j] else
+                          Treatment.BLEND_TRANSITIONS if blend and trans else
                           Treatment.BLEND if blend else
                           Treatment.TRANSITION if trans else Treatment.NONE).value)
         deviation[j] = dev[j][0] if j in dev else 0.0
@@ -823,4 +939,4 @@ def _junction_report(program, pieces, stretches, path, corners, dev, turn, jump,
 
 
 __all__ = ["ChainReport", "JunctionReport", "MoveTable", "ProgramPath", "ProgramPathOptions",
-           "Treatment", "check_program", "program_path"]
+           "StopTable", "Treatment", "check_program", "program_path"]

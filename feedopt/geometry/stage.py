@@ -63,8 +63,8 @@ def waypoints_from_section(section: Any, base_dir: FilePath,
 
 def program_options(section: Any, stock_top: bool = True) -> ProgramPathOptions:
     """The program-path options of a ``gcode`` path section (mm -> m); ``stock_top`` False:
-    plunges are not checked against ``stock_top_mm`` (a stock model checks them against
-    the material itself)."""
+    ``stock_top_mm`` is not used (a stock model has the material itself): air links are not
+    checked against it and plunges count as air moves for the tolerance."""
     return ProgramPathOptions(
         tolerance=section.tolerance_mm * MM, air_tolerance=section.air_tolerance_mm * MM,
         blend=section.blend, blend_size=section.blend_size_mm * MM,
@@ -96,7 +96,8 @@ def program_from_section(section: Any, base_dir: FilePath,
                          ) -> ProgramPath:
     """The smoothed path of the section's G-code program, with its provenance and report."""
     file = resolve(base_dir, section.file, "path.file (G-code program)")
-    program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm)
+    program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm,
+                         dwell_p_units=section.dwell_p_units)
     check_tools(program, section.tool_number)
     result = program_path(program, program_options(section, stock_top))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))

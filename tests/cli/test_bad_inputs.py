@@ -52,8 +52,9 @@ BAD_PROGRAMS = {
     "feed_zero": NC_HEAD + "G1 X10. Z-1. F0\nM30\n",
     "units_switch": NC_HEAD + "G1 X10. Z-1. F200.\nG20\nG1 X1.\nM30\n",
     "no_cut": NC_HEAD + "G0 Z5.\nM30\n",
-    "plunge_into_stock": NC_HEAD + "G1 Z-2. F100.\nG1 X10.\nM30\n",
-    "reversal": NC_HEAD + "G1 X10. Z-1. F200.\nG1 X30.\nG1 X20.\nM30\n",
+    "lost_in_stock": NC_HEAD + "G1 X10. Z-1. F200.\nG28 G91 Z0\nG90\nG0 X20. Y0 Z5.\n"
+                     "G1 Z-1. F100.\nG1 X30.\nM30\n",
+    "stop_in_chain": NC_HEAD + "G1 X1. Z-1. F200.\nG1 X2.\nG1 X3.\nM0\nG1 X4.\nG1 X5.\nM30\n",
     "second_tool": NC_HEAD + "G1 X10. Z-1. F200.\nG0 Z5.\nT2 M6\nG0 X0 Y0 Z5.\n"
                    "G1 X10. Z-1. F200.\nM30\n",
 }
@@ -163,10 +164,11 @@ CASES = [
     case("nc-units-switch", ["path", "units_switch.nc"],
          "line 9: G20: switching units after the first move"),
     case("nc-no-cut", ["path", "no_cut.nc", "--out", "p.csv"], "the program has no cutting move"),
-    case("nc-plunge", ["path", "plunge_into_stock.nc", "--out", "p.csv"],
-         "line 8: 'G1 Z-2. F100.' plunges straight down to Z-2 mm, below the stock top"),
-    case("nc-reversal", ["path", "reversal.nc"],
-         "line 10: the move reverses the direction of line 9"),
+    case("nc-lost-in-stock", ["path", "lost_in_stock.nc", "--out", "p.csv"],
+         "line 8: the tool is at Z-1 mm, below the stock top (Z0 mm), when the program loses "
+         "its position after this move"),
+    case("nc-stop-in-chain", ["path", "stop_in_chain.nc"],
+         "line 11: an M0 inside a run of short moves smoothed as one curve (lines 9-13"),
     case("nc-garbage", ["path", "garbage.nc"], "G-code program garbage.nc is not UTF-8 text"),
     case("run-nc-second-tool", ["run", "scenario/program_t2.yaml"],
          "second_tool.nc line 12: the program cuts with tools T1, T2; the scenario describes "

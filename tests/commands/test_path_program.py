@@ -74,11 +74,32 @@ def test_junction_table_is_printed_with_lines_and_deviations(tmp_path, capsys):
 
 
 def test_refusals_name_the_line_and_write_nothing(tmp_path, capsys):
-    prog = tmp_path / "drill.nc"
-    prog.write_text("G21 G90 G17\nG0 X0 Y0 Z5\nS1000 M3\nG1 Z-3 F100\nG1 X10\nM30\n")
+    """A plunge is an ordinary move; the position lost (G28) with the tool in the stock is
+    refused: the air link would start below the stock top."""
+    prog = tmp_path / "lost.nc"
+    prog.write_text("G21 G90 G17\nG0 X0 Y0 Z5\nS1000 M3\nG1 Z-3 F100\nG1 X10\n"
+                    "G28 G91 Z0\nG90\nG0 X20 Y0 Z5\nG1 Z-3\nG1 X30\nM30\n")
     out = tmp_path / "p.csv"
     assert main(["path", str(prog), "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "line 4" in err and "plunges straight down" in err
+    assert ("lost.nc line 5: the tool is at Z-3 mm, below the stock top (Z0 mm), when the "
+            "program loses its position after this move") in err
     assert not out.exists()
     assert main(["path", str(prog), "--stock-top", "-5", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "note: lines 5-9: the tool position is unknown between them" in text
+    assert "straight up to Z5 mm" in text and out.exists()
+
+
+def test_stops_are_printed_and_sampled_exactly(tmp_path, capsys):
+    prog = tmp_path / "stops.nc"
+    prog.write_text("G21 G90 G17\nG0 X0 Y0 Z5\nS1000 M3\nG1 Z-1 F100\nG1 X10.05\n"
+                    "G1 X0\nG4 P2\nG1 Y10\nM30\n")
+    out = tmp_path / "p.csv"
+    assert main(["path", str(prog), "--spacing", "0.1", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "note: the tool stops on the path: 2 stop(s): 1 reversal, 1 dwell (2 s held)" in text
+    assert "stop" in text.split("treatment")[1]
+    _, num, _ = _read(out)
+    for point in ([10.05, 0, -1], [0, 0, -1]):  # a sample on each stop, not 0.05 mm beside it
+        assert np.linalg.norm(num[:, 1:4] - point, axis=1).min() < 1e-6

@@ -1,6 +1,7 @@
-"""Property: random programs of lines and arcs (tangent or kinked, any turn short of a
-reversal) become a path that is G2 at every junction and stays within the tolerance of every
-programmed move, measured here by brute force against densely sampled programmed moves."""
+"""Property: random programs of lines and arcs (tangent or kinked, any turn) become a path
+that is G2 at every junction but its stops (reversals, corners no transition fits) and stays
+within the tolerance of every programmed move, measured here by brute force against densely
+sampled programmed moves."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from feedopt.errors import InputError
 from feedopt.gcode import parse_gcode
 from feedopt.geometry.continuity import continuity_report
 from feedopt.geometry.program_path import ProgramPathOptions, program_path
@@ -21,7 +21,7 @@ HEAD = "G21 G17 G90 G94\nS2500 M3\nG0 X0 Y0 Z5.\nG1 Z0.5 F300.\nG1 X2. Z-1. F200
 move = st.tuples(
     st.sampled_from(["line", "G2", "G3"]),
     st.floats(1.0, 25.0),  # length of a line / radius of an arc [mm]
-    st.floats(-150.0, 150.0),  # heading change before the move [deg] (kinks)
+    st.floats(-180.0, 180.0),  # heading change before the move [deg] (kinks, reversals)
     st.floats(20.0, 200.0),  # swept angle of an arc [deg]
 )
 
@@ -67,13 +67,12 @@ def _distance_to_program(pts_mm: np.ndarray, program) -> np.ndarray:
 def test_random_programs_are_g2_and_within_tolerance(moves, tol_um):
     program = parse_gcode(_program(moves), "fuzz.nc")
     opts = ProgramPathOptions(tolerance=tol_um * 1e-3 * MM, stock_top=None)
-    try:
-        result = program_path(program, opts)
-    except InputError as exc:  # only the honest refusals
-        assert "reverses the direction" in str(exc) or "within the tolerance" in str(exc)
-        return
+    result = program_path(program, opts)  # reversals and unroundable corners become stops
     rep = continuity_report(result.path)
-    assert rep.g0.max() < 1e-9 and rep.g1.max() < 1e-6 and rep.g2.max() * MM < 1e-5
+    at_stop = np.isin(rep.s, result.stops.s)  # the tool stops there: a G1 corner is allowed
+    assert rep.g0.max() < 1e-9
+    assert rep.g1[~at_stop].max(initial=0) < 1e-6 and rep.g2[~at_stop].max(initial=0) * MM < 1e-5
+    assert set(result.stops.kind) <= {"tool change", "reversal", "corner"}
     pts = result.path.sample(min(0.05 * MM, result.path.length / 4000)).position / MM
     cut = pts[:, 2] < 0.5 - 1e-6  # the cut level; air moves have the air tolerance
     dist = _distance_to_program(pts[cut], program)
