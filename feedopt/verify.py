@@ -19,7 +19,7 @@ mm/s^3) with the unit written, limits included.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 
 import numpy as np
@@ -27,6 +27,7 @@ import numpy as np
 from feedopt.schedule.checks import TimingCheck, Violation, check_timing
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.problem import ScheduleProblem
+from feedopt.schedule.stops import stitched_ramps
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
 
@@ -105,7 +106,9 @@ def verify_trajectory(
 
     ``deflection`` may carry ``model.deflection(trajectory.feed_at(problem.s))`` already
     computed (the runner replays all laws in one pass over the forces); otherwise it is
-    computed here. ``sample_times`` may carry ``trajectory.time_at(problem.s)``.
+    computed here. ``sample_times`` may carry ``trajectory.time_at(problem.s)``. A trajectory
+    planned between stops gets the start and stop ramps of its first and last piece and the
+    smallest cutting feed of its pieces (:func:`feedopt.schedule.stops.stitched_ramps`).
     """
     baseline = is_baseline(trajectory.law)
     if not is_finite(trajectory):
@@ -114,6 +117,10 @@ def verify_trajectory(
         sample_times = trajectory.time_at(problem.s)
     timing = check_timing(trajectory, problem, rtol=rtol, enforce_feed_bound=not baseline,
                           sample_times=sample_times)
+    ramps = stitched_ramps(trajectory, problem, follow_bound=not baseline)
+    if ramps is not None:  # planned between stops: ramps and cutting feed of its pieces
+        timing = replace(timing, start_ramp=ramps[0], stop_ramp=ramps[1],
+                         min_cutting_feed=ramps[2])
     feed = trajectory.timing.derivative(1)(sample_times)  # feed_at(problem.s)
     if deflection is None:
         deflection = model.deflection(np.maximum(feed, 0.0))

@@ -109,13 +109,33 @@ def plan_law(name: str, problem: ScheduleProblem, context: dict[str, Trajectory]
     ``context`` holds the trajectories of laws planned before (``{name: Trajectory}``); a law
     gets those it declares in :attr:`LawSpec.uses_context` (convex reports its optimality gap
     to ``topp`` without re-running toppra). The new trajectory is added to ``context``.
+
+    A problem with stops inside the path or holds (``problem.stops``) is planned piece by
+    piece between them and stitched (:func:`feedopt.schedule.stops.plan_through_stops`); a
+    law that declines one piece declines the problem.
     """
-    spec = LAWS[name]
     context = {} if context is None else context
-    extra = {k: context.get(k) for k in spec.uses_context}
-    trajectory: Trajectory = spec.plan_function()(problem, options=options, **extra)
+    trajectory = None
+    if problem.stops is not None:
+        from feedopt.schedule.stops import needs_stitching, plan_through_stops
+
+        if needs_stitching(problem):
+            trajectory = plan_through_stops(name, problem, context, options,
+                                            planner=_plan_whole,
+                                            uses_context=LAWS[name].uses_context)
+    if trajectory is None:
+        trajectory = _plan_whole(name, problem, context, options)
     context[name] = trajectory
     return trajectory
+
+
+def _plan_whole(name: str, problem: ScheduleProblem, context: dict[str, Trajectory],
+                options: BaseModel | None) -> Trajectory:
+    """The law's own plan function on ``problem`` (its stops ignored), with the context
+    trajectories it declares."""
+    spec = LAWS[name]
+    extra = {k: context.get(k) for k in spec.uses_context}
+    return spec.plan_function()(problem, options=options, **extra)
 
 
 for _spec in (
