@@ -7,11 +7,20 @@ slot averages (Eq. 3.25)::
     Ktc = 4 Fyc / (N a)    Kte = pi Fye / (N a)
     Krc = -4 Fxc / (N a)   Kre = -pi Fxe / (N a)
     Kac = pi Fzc / (N a)   Kae = 2 Fze / (N a)
+
+Plunge coefficients (optional, :mod:`feedopt.process.plunge`; Altintas, Manufacturing
+Automation, 2nd ed., ch. 2): the mean thrust and torque of full straight plunges with a tool of
+N teeth and radius R are linear in the axial feed per tooth c, F_z = N R (K_tc c + K_te) and
+T = N R^2 / 2 (K_cc c + K_ce); at each speed the least-squares lines F_z = F_zc c + F_ze and
+T = T_c c + T_e give::
+
+    K_tc = F_zc / (N R)    K_te = F_ze / (N R)    K_cc = 2 T_c / (N R^2)    K_ce = 2 T_e / (N R^2)
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 from dataclasses import dataclass
@@ -22,10 +31,14 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CoefficientTable, CuttingCoefficients
 from feedopt.process.forces import feed_per_tooth
+from feedopt.process.plunge import PlungeCoefficients
 from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
 
 CSV_COLUMNS = ("spindle_rpm", "feed_mm_s", "fx_n", "fy_n", "fz_n")
+#: Columns of the plunge CSV (exactly these): the mean thrust on the tool along its axis,
+#: > 0 pushing it back into the spindle, and the spindle's cutting torque, > 0.
+PLUNGE_CSV_COLUMNS = ("spindle_rpm", "feed_mm_s", "thrust_n", "torque_nm")
 
 
 @dataclass(frozen=True)
@@ -37,6 +50,30 @@ class SlotForceRow:
     fx: float  # [N]
     fy: float
     fz: float
+
+
+@dataclass(frozen=True)
+class PlungeForceRow:
+    """One plunge calibration cut: mean thrust on the tool [N] (+z, pushing it back) and
+    spindle torque [N m] of a full straight plunge at axial feed ``feed`` [m/s]."""
+
+    rpm: float
+    feed: float  # [m/s]
+    thrust: float  # [N]
+    torque: float  # [N m]
+
+
+@dataclass(frozen=True)
+class PlungeCalibration:
+    """The plunge fit at one spindle speed: coefficients (SI), R^2 of the thrust and torque
+    lines (2,), feeds per tooth of the cuts [m], slopes [N/m, N m/m] and intercepts [N, N m]."""
+
+    rpm: float
+    coeffs: PlungeCoefficients
+    r2: np.ndarray
+    feed_per_tooth: np.ndarray
+    slopes: np.ndarray
+    intercepts: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -62,57 +99,67 @@ class SpeedCalibration:
 
 def read_slot_forces(path: str | Path) -> list[SlotForceRow]:
     """Read ``spindle_rpm,feed_mm_s,fx_n,fy_n,fz_n`` (``#`` comment lines allowed)."""
+    rows = _read_numeric_csv(path, CSV_COLUMNS, "forces CSV", strict=False)
+    return [SlotForceRow(r["spindle_rpm"], r["feed_mm_s"] * MM, r["fx_n"], r["fy_n"], r["fz_n"])
+            for r in rows]
+
+
+def read_plunge_forces(path: str | Path) -> list[PlungeForceRow]:
+    """Read ``spindle_rpm,feed_mm_s,thrust_n,torque_nm`` (mean thrust [N] and torque [N m]
+    of straight plunges at axial feed ``feed_mm_s``; ``#`` comment lines allowed; no other
+    column)."""
+    rows = _read_numeric_csv(path, PLUNGE_CSV_COLUMNS, "plunge forces CSV", strict=True)
+    return [PlungeForceRow(r["spindle_rpm"], r["feed_mm_s"] * MM, r["thrust_n"], r["torque_nm"])
+            for r in rows]
+
+
+def _read_numeric_csv(path: str | Path, columns: tuple[str, ...], what: str,
+                      strict: bool) -> list[dict[str, float]]:
+    """Rows of a CSV of finite numbers with the header ``columns`` (``strict``: no other
+    column), ``spindle_rpm`` and ``feed_mm_s`` > 0; InputError naming the file and row."""
     p = Path(path)
     if not p.is_file():
-        raise InputError(f"forces CSV {str(p)!r} does not exist")
+        raise InputError(f"{what} {str(p)!r} does not exist")
     lines = [
-        ln for ln in read_user_text(p, "forces CSV", encoding="utf-8-sig").splitlines()
+        ln for ln in read_user_text(p, what, encoding="utf-8-sig").splitlines()
         if ln.strip() and not ln.lstrip().startswith("#")
     ]
     if not lines:
-        raise InputError(f"forces CSV {str(p)!r} has no header row")
+        raise InputError(f"{what} {str(p)!r} has no header row")
     reader = csv.DictReader(io.StringIO("\n".join(lines)))
     header = [h.strip() for h in (reader.fieldnames or [])]
-    missing = [c for c in CSV_COLUMNS if c not in header]
-    if missing:
-        raise InputError(
-            f"forces CSV {str(p)!r}: missing column(s) {', '.join(missing)}; expected header "
-            f"{','.join(CSV_COLUMNS)}"
-        )
+    missing = [c for c in columns if c not in header]
+    unknown = [c for c in header if c not in columns] if strict else []
+    if missing or unknown:
+        why = (f"missing column(s) {', '.join(missing)}" if missing
+               else f"unknown column(s) {', '.join(unknown)}")
+        raise InputError(f"{what} {str(p)!r}: {why}; expected header {','.join(columns)}")
     rows = []
     for i, raw in enumerate(reader, start=1):
         if None in raw:  # DictReader files surplus fields under the key None
             raise InputError(
-                f"forces CSV {str(p)!r}, data row {i}: {len(header) + len(raw[None])} fields, "
+                f"{what} {str(p)!r}, data row {i}: {len(header) + len(raw[None])} fields, "
                 f"but the header has {len(header)}"
             )
         rec = {(k or "").strip(): (v or "").strip() for k, v in raw.items()}
         vals = {}
-        for col in CSV_COLUMNS:
+        for col in columns:
             try:
                 vals[col] = float(rec[col])
             except ValueError:
                 raise InputError(
-                    f"forces CSV {str(p)!r}, data row {i}: {col} = {rec[col]!r} is not a number"
+                    f"{what} {str(p)!r}, data row {i}: {col} = {rec[col]!r} is not a number"
                 ) from None
             if not math.isfinite(vals[col]):
-                raise InputError(f"forces CSV {str(p)!r}, data row {i}: {col} must be finite")
+                raise InputError(f"{what} {str(p)!r}, data row {i}: {col} must be finite")
         if vals["spindle_rpm"] <= 0 or vals["feed_mm_s"] <= 0:
             raise InputError(
-                f"forces CSV {str(p)!r}, data row {i}: spindle_rpm and feed_mm_s must be > 0, "
+                f"{what} {str(p)!r}, data row {i}: spindle_rpm and feed_mm_s must be > 0, "
                 f"got {vals['spindle_rpm']:g} rpm, {vals['feed_mm_s']:g} mm/s"
             )
-        rows.append(
-            SlotForceRow(
-                vals["spindle_rpm"],
-                vals["feed_mm_s"] * MM,
-                vals["fx_n"],
-                vals["fy_n"],
-                vals["fz_n"],
-            )
-        )
+        rows.append(vals)
     if not rows:
-        raise InputError(f"forces CSV {str(p)!r} has no data rows")
+        raise InputError(f"{what} {str(p)!r} has no data rows")
     return rows
 
 
@@ -170,19 +217,71 @@ def calibrate(rows: list[SlotForceRow], teeth: int, axial_depth: float) -> list[
     return out
 
 
+def calibrate_plunge(rows: list[PlungeForceRow], teeth: int, diameter: float
+                     ) -> list[PlungeCalibration]:
+    """Fit the four plunge coefficients per spindle speed (module docstring), sorted by
+    speed; each speed needs plunges at >= 2 distinct feeds per tooth."""
+    if isinstance(teeth, bool) or int(teeth) != teeth or teeth < 1:
+        raise InputError(f"teeth must be a whole number >= 1, got {teeth!r}")
+    if not (math.isfinite(diameter) and diameter > 0):
+        raise InputError(f"tool diameter must be > 0, got {diameter * MM_PER_M!r} mm")
+    if not rows:
+        raise InputError("plunge calibration needs at least one speed with two or more cuts")
+    radius = diameter / 2.0
+    out = []
+    for rpm in sorted({r.rpm for r in rows}):
+        sel = [r for r in rows if r.rpm == rpm]
+        c = np.array([feed_per_tooth(r.feed, rpm, teeth) for r in sel])
+        if np.unique(c).size < 2:
+            raise InputError(
+                f"plunge calibration at {rpm:g} rpm: need plunges at two or more different "
+                f"feeds, got {len(sel)} plunge(s) at {np.unique(c).size} feed(s)")
+        thrust = _fit(c, np.array([r.thrust for r in sel]))
+        torque = _fit(c, np.array([r.torque for r in sel]))
+        coeffs = PlungeCoefficients(
+            thrust_cutting=thrust[0] / (teeth * radius),
+            thrust_edge=thrust[1] / (teeth * radius),
+            torque_cutting=2.0 * torque[0] / (teeth * radius**2),
+            torque_edge=2.0 * torque[1] / (teeth * radius**2),
+        )
+        out.append(PlungeCalibration(
+            rpm=float(rpm), coeffs=coeffs, r2=np.array([thrust[2], torque[2]]),
+            feed_per_tooth=c, slopes=np.array([thrust[0], torque[0]]),
+            intercepts=np.array([thrust[1], torque[1]])))
+    return out
+
+
 def calibration_table(
-    cals: list[SpeedCalibration], material: str = "", tool: str = "", source: str = ""
+    cals: list[SpeedCalibration], material: str = "", tool: str = "", source: str = "",
+    plunge: list[PlungeCalibration] | None = None,
 ) -> CoefficientTable:
     """Collect per-speed calibrations into a :class:`CoefficientTable`.
 
     Its ``feed_per_tooth_range`` is the smallest and largest feed per tooth of all the cuts
-    (every speed), the range in which the fitted lines of Eq. 3.24 were observed.
+    (every speed), the range in which the fitted lines of Eq. 3.24 were observed. ``plunge``
+    (optional) must be calibrated at exactly the speeds of ``cals`` (InputError naming the
+    others).
     """
     if not cals:
         raise InputError("calibration table: no calibrated speed")
     c = np.concatenate([cal.feed_per_tooth for cal in cals])
+    speeds = {cal.rpm: cal.coeffs for cal in cals}
+    if plunge:
+        by_rpm = {p.rpm: p.coeffs for p in plunge}
+        if set(by_rpm) != set(speeds):
+            extra = sorted(set(by_rpm) - set(speeds))
+            missing = sorted(set(speeds) - set(by_rpm))
+            why = []
+            if missing:
+                why.append(f"no plunge cuts at {', '.join(f'{r:g}' for r in missing)} rpm")
+            if extra:
+                why.append(f"plunge cuts at {', '.join(f'{r:g}' for r in extra)} rpm, where "
+                           "there are no slot cuts")
+            raise InputError(f"plunge calibration: {'; '.join(why)}; the plunge cuts need the "
+                             "spindle speeds of the slot cuts (a plunge block at every speed)")
+        speeds = {rpm: dataclasses.replace(k, plunge=by_rpm[rpm]) for rpm, k in speeds.items()}
     return CoefficientTable.from_speeds(
-        {cal.rpm: cal.coeffs for cal in cals},
+        speeds,
         material=material,
         tool=tool,
         source=source,

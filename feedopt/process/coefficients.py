@@ -13,12 +13,25 @@ File format (``shared/design.md``, written by ``feedopt calibrate --out``)::
         kte_n_m: 7.42e3
         kre_n_m: 8.45e3
         kae_n_m: -2.13e3
+        plunge:                      # optional: straight plunges (feedopt.process.plunge)
+          thrust_cutting_n_mm2: 1500
+          thrust_edge_n_mm: 20
+          torque_cutting_n_mm2: 900
+          torque_edge_n_mm: 10
     feed_per_tooth_range_mm: [0.01905, 0.12705]   # optional
 
 ``feed_per_tooth_range_mm`` (optional, written by ``feedopt calibrate --out``) is the smallest
 and largest feed per tooth of the calibration cuts over all speeds; the linear model
 F = F_c c + F_e (Eq. 3.24) is only known to hold there, so a feed per tooth outside it earns a
 warning (:func:`feed_per_tooth_warning`), not an error. Files without it stay valid.
+
+``plunge`` (optional, per speed) holds the coefficients of the end cutting edges in a
+straight plunge along the tool axis (:mod:`feedopt.process.plunge`: thrust
+F_z = N (K_tc c + K_te) R, torque T = N (K_cc c + K_ce) R^2 / 2), in N/mm^2 and N/mm as their
+names say; all four keys are required in a block, nothing else is allowed, the cutting ones
+must be > 0 and the edge ones >= 0. Either every speed has a ``plunge`` block or none does
+(they are interpolated between speeds like the others); without them the plunges of a
+program are not modelled (the run says which).
 
 Signs (thesis 3.6.1): the tangential and radial cutting coefficients are > 0 (the chip pushes
 the tool back against the cutting speed and away from the surface); the tangential and radial
@@ -32,7 +45,7 @@ have either sign: their sign only states the direction of the axial force (+z ti
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +53,7 @@ import yaml
 
 from feedopt.errors import InputError
 from feedopt.process._io import check_keys, number, read_yaml_mapping, text
+from feedopt.process.plunge import PLUNGE_FILE_KEYS, PlungeCoefficients, plunge_sign_problems
 from feedopt.units import MM
 
 #: Optional file-level YAML key of the calibrated feed-per-tooth range ``[min, max]`` [mm].
@@ -74,6 +88,10 @@ class CuttingCoefficients:
     and ``feedopt calibrate``, not here, so that unit or test coefficient sets can be built):
     ``ktc > 0``, ``krc > 0``, ``kte >= 0``, ``kre >= 0``; ``kac`` and ``kae`` may have either
     sign, which is only the direction convention of the axial force (Eq. 3.25).
+
+    ``plunge``: the end-edge coefficients of a straight plunge
+    (:class:`~feedopt.process.plunge.PlungeCoefficients`), None when the material file has
+    none.
     """
 
     ktc: float
@@ -82,16 +100,17 @@ class CuttingCoefficients:
     kte: float
     kre: float
     kae: float
+    plunge: PlungeCoefficients | None = None
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            v = getattr(self, f.name)
+        for name in FILE_KEYS:
+            v = getattr(self, name)
             if not math.isfinite(v):
-                raise InputError(f"cutting coefficient {f.name} must be finite, got {v!r}")
+                raise InputError(f"cutting coefficient {name} must be finite, got {v!r}")
 
     def as_array(self) -> np.ndarray:
-        """The six values in field order ``(ktc, krc, kac, kte, kre, kae)``."""
-        return np.array(astuple(self), dtype=float)
+        """The six side-milling values ``(ktc, krc, kac, kte, kre, kae)`` (not the plunge)."""
+        return np.array([getattr(self, name) for name in FILE_KEYS], dtype=float)
 
 
 #: Sign rule per coefficient: (must be > 0, what the rule means); Kac and Kae are free.
@@ -131,6 +150,8 @@ class CoefficientTable:
     ``values[i]`` holds ``(ktc, krc, kac, kte, kre, kae)`` at ``rpm[i]``.
     ``feed_per_tooth_range`` is ``(min, max)`` feed per tooth of the calibration cuts [m], or
     None when unknown (files without ``feed_per_tooth_range_mm``).
+    ``plunge`` is None (no plunge coefficients) or (k, 4): the
+    :class:`~feedopt.process.plunge.PlungeCoefficients` at every speed (SI, field order).
     """
 
     rpm: np.ndarray
@@ -139,6 +160,7 @@ class CoefficientTable:
     tool: str = ""
     source: str = ""
     feed_per_tooth_range: tuple[float, float] | None = None
+    plunge: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         rpm = np.asarray(self.rpm, dtype=float).reshape(-1)
@@ -153,6 +175,12 @@ class CoefficientTable:
             )
         object.__setattr__(self, "rpm", rpm)
         object.__setattr__(self, "values", values)
+        if self.plunge is not None:
+            plunge = np.asarray(self.plunge, dtype=float)
+            if plunge.shape != (rpm.size, 4) or not np.all(np.isfinite(plunge)):
+                raise InputError("coefficient table: plunge coefficients need four finite "
+                                 "values at every speed")
+            object.__setattr__(self, "plunge", plunge)
         if self.feed_per_tooth_range is not None:
             lo, hi = (float(v) for v in self.feed_per_tooth_range)
             if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
@@ -171,8 +199,15 @@ class CoefficientTable:
         source: str = "",
         feed_per_tooth_range: tuple[float, float] | None = None,
     ) -> CoefficientTable:
-        """Build a table from ``{rpm: CuttingCoefficients}`` (any order)."""
+        """Build a table from ``{rpm: CuttingCoefficients}`` (any order); their plunge
+        coefficients must be given at every speed or at none (InputError naming a speed
+        without)."""
         rpms = sorted(speeds)
+        has = [speeds[r].plunge is not None for r in rpms]
+        if any(has) and not all(has):
+            missing = ", ".join(f"{r:g}" for r, h in zip(rpms, has, strict=True) if not h)
+            raise InputError(f"plunge coefficients are given at some speeds but not at "
+                             f"{missing} rpm: give a plunge block at every speed or at none")
         return cls(
             rpm=np.array(rpms, dtype=float),
             values=np.array([speeds[r].as_array() for r in rpms]),
@@ -180,6 +215,8 @@ class CoefficientTable:
             tool=tool,
             source=source,
             feed_per_tooth_range=feed_per_tooth_range,
+            plunge=(np.array([speeds[r].plunge.as_array() for r in rpms]) if all(has)
+                    else None),
         )
 
     def at(self, rpm: float, extrapolate: bool = False) -> CuttingCoefficients:
@@ -202,7 +239,11 @@ class CoefficientTable:
                 "speed or allow extrapolation (holds the nearest calibrated speed)"
             )
         vals = [float(np.interp(rpm, self.rpm, self.values[:, k])) for k in range(6)]
-        return CuttingCoefficients(*vals)
+        plunge = None
+        if self.plunge is not None:
+            plunge = PlungeCoefficients(*(float(np.interp(rpm, self.rpm, self.plunge[:, k]))
+                                          for k in range(4)))
+        return CuttingCoefficients(*vals, plunge=plunge)
 
 
 def feed_per_tooth_warning(table: CoefficientTable, feed_per_tooth_m: float) -> str | None:
@@ -244,6 +285,26 @@ def _range_of(data: dict, where: str) -> tuple[float, float] | None:
     return lo * MM, hi * MM
 
 
+def _plunge_block(entry: dict, at: str) -> PlungeCoefficients | None:
+    """The ``plunge`` block of a speed entry (strict, N/mm^2 and N/mm -> SI), None without."""
+    if "plunge" not in entry:
+        return None
+    block = entry["plunge"]
+    where = f"{at}.plunge"
+    if not isinstance(block, dict):
+        raise InputError(f"{where}: expected a mapping with "
+                         f"{', '.join(k for k, _ in PLUNGE_FILE_KEYS.values())}, got {block!r}")
+    check_keys(block, tuple(k for k, _ in PLUNGE_FILE_KEYS.values()), where)
+    coeffs = PlungeCoefficients(**{name: number(block, key, where) * scale
+                                   for name, (key, scale) in PLUNGE_FILE_KEYS.items()})
+    problems = plunge_sign_problems(coeffs)
+    if problems:
+        raise InputError(f"{at}: {'; '.join(problems)}. The thrust and torque of a plunge "
+                         "grow with the feed and push the tool back (forces on the tool); "
+                         "check the signs or recalibrate (feedopt calibrate --plunge-forces)")
+    return coeffs
+
+
 def load_coefficients(path: str | Path) -> CoefficientTable:
     """Read a coefficients YAML file (format in the module docstring) into SI units; strict:
     unknown keys, at the top or in a speed entry, are refused (InputError naming the key).
@@ -262,14 +323,14 @@ def load_coefficients(path: str | Path) -> CoefficientTable:
         at = f"{where}: speeds[{i}]"
         if not isinstance(entry, dict):
             raise InputError(f"{at}: expected a mapping with rpm and six coefficients")
-        check_keys(entry, ("rpm", *FILE_KEYS.values()), at)
+        check_keys(entry, ("rpm", *FILE_KEYS.values(), "plunge"), at)
         rpm = number(entry, "rpm", at)
         if rpm <= 0:
             raise InputError(f"{at}.rpm: must be > 0, got {rpm!r}")
         if rpm in table:
             raise InputError(f"{at}.rpm: speed {rpm:g} rpm listed twice")
         values = {k: number(entry, key, at) for k, key in FILE_KEYS.items()}
-        coeffs = CuttingCoefficients(**values)
+        coeffs = CuttingCoefficients(**values, plunge=_plunge_block(entry, at))
         problems = sign_problems(coeffs)
         if problems:
             raise InputError(
@@ -279,13 +340,12 @@ def load_coefficients(path: str | Path) -> CoefficientTable:
                 f"{AXIAL_SIGN_NOTE}."
             )
         table[rpm] = coeffs
-    return CoefficientTable.from_speeds(
-        table,
-        material=text(data, "material", where),
-        tool=text(data, "tool", where),
-        source=text(data, "source", where),
-        feed_per_tooth_range=_range_of(data, where),
-    )
+    labels = {key: text(data, key, where) for key in ("material", "tool", "source")}
+    feed_range = _range_of(data, where)
+    try:
+        return CoefficientTable.from_speeds(table, **labels, feed_per_tooth_range=feed_range)
+    except InputError as exc:  # plunge blocks at some speeds only
+        raise InputError(f"{where}: {exc}") from None
 
 
 def save_coefficients(table: CoefficientTable, path: str | Path) -> None:
@@ -296,6 +356,10 @@ def save_coefficients(table: CoefficientTable, path: str | Path) -> None:
         for k, v in zip(FILE_KEYS.values(), row, strict=True):
             entry[k] = float(f"{v:.6g}")
         speeds.append(entry)
+    if table.plunge is not None:
+        for entry, row in zip(speeds, table.plunge, strict=True):
+            entry["plunge"] = {key: float(f"{v / scale:.6g}") for (key, scale), v
+                               in zip(PLUNGE_FILE_KEYS.values(), row, strict=True)}
     doc: dict[str, object] = {}
     if table.material:
         doc["material"] = table.material

@@ -98,12 +98,17 @@ class Engagement:
         union of their pieces, each with its own axial depth, instead of on one interval;
         ``entry``/``exit`` are then their hull (first and last engaged angle) and
         ``axial_depth`` their largest depth, for reports. The force model sums the pieces.
+    plunge : optional (n,) end cutting per sample (:mod:`feedopt.process.plunge`): 0 = the
+        end edges cut nothing, 1 = a full plunge into material along the tool axis (no
+        other value: a partial footprint is not modelled). None (or all 0) = no plunge;
+        the force model adds the plunge force to whatever side engagement the sample has.
     """
 
     entry: np.ndarray
     exit: np.ndarray
     axial_depth: np.ndarray
     pieces: EngagementPieces | None = None
+    plunge: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         arrays = [np.asarray(getattr(self, k), dtype=float) for k in ("entry", "exit")]
@@ -122,6 +127,7 @@ class Engagement:
         object.__setattr__(self, "exit", arrays[1])
         object.__setattr__(self, "axial_depth", depth)
         validate_engagement(self)
+        object.__setattr__(self, "plunge", _plunge_column(self.plunge, self.n))
         p = self.pieces
         if p is not None:
             if p.count == 0:
@@ -154,21 +160,60 @@ class Engagement:
             if idx.size > 1 and np.any(np.diff(idx) <= 0):
                 raise ValueError("Engagement.take needs increasing sample indices")
             pieces = self.pieces.select(keep)
-        return Engagement(self.entry[idx], self.exit[idx], self.axial_depth[idx], pieces)
+        plunge = None if self.plunge is None else self.plunge[idx]
+        return Engagement(self.entry[idx], self.exit[idx], self.axial_depth[idx], pieces,
+                          plunge)
 
     def without(self, drop: np.ndarray) -> Engagement:
-        """This engagement with the samples where ``drop`` holds not cutting (in air)."""
+        """This engagement with the samples where ``drop`` holds not cutting (in air, no
+        plunge either)."""
         drop = np.asarray(drop, dtype=bool)
         pieces = None if self.pieces is None else self.pieces.select(~drop, renumber=False)
+        plunge = None if self.plunge is None else np.where(drop, 0.0, self.plunge)
         return Engagement(np.where(drop, 0.0, self.entry), np.where(drop, 0.0, self.exit),
-                          self.axial_depth, pieces)
+                          self.axial_depth, pieces, plunge)
 
     def hull_only(self) -> Engagement:
-        """Every sample on one interval: the pieced samples not cutting (entry = exit = 0).
+        """Every sample on one interval: the pieced samples not cutting (entry = exit = 0),
+        without the plunge.
 
-        With ``pieces.as_engagement()``, the two parts the force model sums."""
+        With ``pieces.as_engagement()``, the two parts the force model sums for the side
+        (peripheral) edges."""
         return Engagement(np.where(self.pieced, 0.0, self.entry),
                           np.where(self.pieced, 0.0, self.exit), self.axial_depth)
+
+    def side_only(self) -> Engagement:
+        """This engagement without its plunge (the side edges only)."""
+        if self.plunge is None:
+            return self
+        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces)
+
+    def with_plunge(self, plunge: np.ndarray | None) -> Engagement:
+        """This engagement with the plunge column ``plunge`` (n,) (0/1; None: no plunge)."""
+        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, plunge)
+
+    @property
+    def plunging(self) -> np.ndarray:
+        """(n,) bool: samples whose end edges plunge into material."""
+        if self.plunge is None:
+            return np.zeros(self.n, dtype=bool)
+        return self.plunge > 0
+
+
+def _plunge_column(plunge, n: int) -> np.ndarray | None:
+    """The plunge column as a float (n,) array of 0 and 1, or None when absent or all 0."""
+    if plunge is None:
+        return None
+    p = np.asarray(plunge, dtype=float)
+    if p.shape != (n,):
+        raise InputError(f"engagement: plunge has shape {p.shape}, expected ({n},)")
+    bad = (p != 0.0) & (p != 1.0)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(f"engagement.plunge at sample {i} is {float(p[i])!r}: must be 0 (no end "
+                         "cutting) or 1 (a full plunge into material); a partial footprint "
+                         "is not modelled")
+    return p.copy() if p.any() else None
 
 
 def validate_engagement(eng: Engagement, flute_length: float | None = None) -> None:

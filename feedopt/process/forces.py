@@ -13,6 +13,10 @@ This is the convention of thesis Eq. 3.25: with the Table 3.3 coefficients (nega
 a full-immersion slot gives negative mean Fx, positive Fy and negative Fz, as measured in
 Table 3.2. Every force is affine in the feed per tooth c, so it is returned split:
 ``F(phi) = c * cutting(phi) + edge(phi)``.
+
+Samples that plunge (``Engagement.plunge``) add the force and torque of the end cutting edges
+(:mod:`feedopt.process.plunge`: thrust ``+z`` on the tool, N (K_tc c + K_te) R, and torque
+N (K_cc c + K_ce) R^2 / 2; constant over the rotation for N >= 2 teeth) to the same split.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.engagement import Engagement, validate_engagement
+from feedopt.process.plunge import plunge_parts
 from feedopt.process.tool import Tool
 
 __all__ = [
@@ -176,6 +181,9 @@ def milling_forces(
     phi = np.asarray(angles, dtype=float).reshape(-1)
     if phi.size == 0 or not np.all(np.isfinite(phi)):
         raise InputError("angles must be a non-empty array of finite values [rad]")
+    if engagement.plunge is not None:  # side edges, then the end edges added
+        side = milling_forces(tool, coeffs, engagement.side_only(), phi, axial_slices)
+        return _with_plunge(side, tool, coeffs, engagement.plunge)
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -183,7 +191,13 @@ def milling_forces(
                        lambda e, _i: milling_forces(tool, coeffs, e, phi, axial_slices), phi),
             milling_forces(tool, coeffs, pieces.as_engagement(), phi, axial_slices),
             pieces.sample)
+    return _one_interval_forces(tool, coeffs, engagement, phi, int(axial_slices))
 
+
+def _one_interval_forces(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement,
+                         phi: np.ndarray, axial_slices: int) -> ForceSplit:
+    """:func:`milling_forces` of an engagement on one interval per sample (no pieces, no
+    plunge): per distinct engagement, prefix sums of a sorted slice table per axial depth."""
     n, m = engagement.n, phi.size
     cutting = np.empty((n, m, 3))
     edge = np.empty((n, m, 3))
@@ -325,6 +339,9 @@ def milling_forces_at(
         )
     if phi.shape[1] == 0 or not np.all(np.isfinite(phi)):
         raise InputError("angles must be a non-empty array of finite values [rad]")
+    if engagement.plunge is not None:  # side edges, then the end edges added
+        side = milling_forces_at(tool, coeffs, engagement.side_only(), phi, axial_slices)
+        return _with_plunge(side, tool, coeffs, engagement.plunge)
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -408,6 +425,28 @@ def _sums_at(
             b[4] += tmp
     b *= da[:, None]
     return _project(b, coeffs, tool.diameter / 2.0)
+
+
+def _with_plunge(split: ForceSplit, tool: Tool, coeffs: CuttingCoefficients,
+                 plunge: np.ndarray) -> ForceSplit:
+    """``split`` (side edges) plus the end-edge force and torque of the plunging samples
+    (:func:`feedopt.process.plunge.plunge_parts`); InputError without plunge coefficients."""
+    if coeffs.plunge is None:
+        i = int(np.argmax(plunge > 0))
+        raise InputError(f"sample {i} plunges along the tool axis, but the cutting "
+                         "coefficients have no plunge block (material file: plunge: "
+                         "thrust_cutting_n_mm2, ...; feedopt calibrate --plunge-forces)")
+    rows = np.flatnonzero(plunge > 0)
+    angles = split.angles if split.angles.ndim == 1 else split.angles[rows]
+    parts = plunge_parts(tool, coeffs.plunge, np.ones(rows.size), angles)
+    arrays = []
+    for name, part in zip(("cutting", "edge", "cutting_torque", "edge_torque"), parts,
+                          strict=True):
+        arr = getattr(split, name)  # fresh arrays of the side-edge pass: added in place
+        arr = arr if arr.flags.writeable else arr.copy()
+        arr[rows] += part
+        arrays.append(arr)
+    return ForceSplit(split.angles, *arrays)
 
 
 def _hull_part(engagement: Engagement, evaluate, angles: np.ndarray) -> ForceSplit:

@@ -4,8 +4,12 @@ When a scenario has ``stock:``, :func:`engagement_from_stock` builds the Z-map
 (:mod:`feedopt.process.stock`: a box, or a closed mesh), sweeps the scenario's end mill along
 the sampled path in order and hands the force model the engagement the material gives
 (entry/exit angles and axial depth per sample; air samples carry no force). On a G-code
-program it also refuses what the force model cannot describe and a CNC would crash on: a rapid
-that meets material, and a plunge straight down into it (a drilling move), naming the line.
+program it also refuses what a CNC would crash on: a rapid that meets material, and a plunge
+deeper than the flutes, naming the line. A plunge straight down (G1 along -Z) that meets
+material is a full plunge of the end edges (``Engagement.plunge = 1``,
+:mod:`feedopt.process.plunge`): "meets material" is the sweep's material in front of the
+cutter at that sample (the leading half of the footprint and the crescent beyond its rim
+along the last feed direction, above the tool tip), and its footprint is taken as full.
 
 A path that cuts no material at any sample is refused (the stock is elsewhere, or the mesh is
 in other units: the message gives both extents in mm) unless ``stock.air_cut`` says an air cut
@@ -23,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.plunge import check_plunge_depth
 from feedopt.process.stock import FlatEndMill, StockEngagement, ZMap, sweep
 from feedopt.process.tool import Tool
 from feedopt.units import MM
@@ -112,7 +117,7 @@ def _nothing_cut(section, before: ZMap, found: StockEngagement, positions: np.nd
                  radius: float) -> tuple[str, ...]:
     """Refuse (or, with stock.air_cut, warn about) a path that cuts no material at all; warn
     when stock.air_cut is set but the path cuts."""
-    cutting = int(np.sum(~found.in_air))
+    cutting = int(np.sum(~found.in_air | found.engagement.plunging))
     air_cut = bool(getattr(section, "air_cut", False))
     if cutting and air_cut:
         return (f"stock.air_cut is set but the path cuts material at {cutting} of "
@@ -159,10 +164,13 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
     found = sweep(after, FlatEndMill.from_tool(tool), samples.position,
                   _feed_tangents(samples.tangent), depth_step=section.depth_step_mm * MM)
     vertical = np.linalg.norm(samples.tangent[:, :2], axis=1) <= 1e-6
+    plunge = None
     if moves is not None:
-        _check_program_contacts(found, moves, samples, source, vertical)
-    if vertical.any():  # moves along the tool axis do not mill: no force (a plunge into the
-        found = _without(found, vertical)  # material was refused above)
+        plunge = _check_program_contacts(found, moves, samples, source, vertical, tool)
+    if vertical.any():  # moves along the tool axis do not mill with the side edges
+        found = _without(found, vertical)
+    if plunge is not None and plunge.any():  # ... but a plunge cuts with the end edges
+        found = dataclasses.replace(found, engagement=found.engagement.with_plunge(plunge))
     warnings = _units_note(section, before)
     warnings += _nothing_cut(section, before, found, samples.position, 0.5 * tool.diameter)
     return MaterialAlongPath(before=before, after=after, found=found, warnings=warnings)
@@ -181,21 +189,23 @@ def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:
 
 
 def _check_program_contacts(found: StockEngagement, moves, samples, source: str,
-                            vertical: np.ndarray) -> None:
-    """Rapids across the tool axis and plunges that meet material are refused. A vertical
-    rapid (a retract) is not checked: the sweep's material in front of the cutter is ahead
-    along the last feed direction, not where a vertical move goes."""
+                            vertical: np.ndarray, tool: Tool) -> np.ndarray:
+    """Rapids across the tool axis that meet material are refused, and plunges that meet it
+    deeper than the flute length below its top; returns the plunge column (1 where a plunge
+    meets material). A vertical rapid (a retract) is not checked: the sweep's material in
+    front of the cutter is ahead along the last feed direction, not where a vertical move
+    goes."""
     move = moves.index_at(samples.s)
     cat = moves.category[move].copy()
     cat[(cat == "rapid") & vertical & (samples.tangent[:, 2] > 0)] = "retract"
-    for what, why in (("rapid", "a rapid (G0) meets material: the cutter would crash into "
-                                "the stock; rapid above it or cut with G1"),
-                      ("plunge", "a plunge straight down meets material: a drilling move the "
-                                 "milling force model does not cover; enter by a ramp or a "
-                                 "helix")):
-        hit = (cat == what) & ~found.in_air
-        if hit.any():
-            i = int(np.argmax(hit))
-            raise InputError(
-                f"{source} {moves.label(int(move[i]))}: {why} (at s = {samples.s[i] / MM:.3f} "
-                f"mm, {found.axial_depth[i] / MM:.3g} mm deep)")
+    hit = (cat == "rapid") & ~found.in_air
+    plunge = (cat == "plunge") & ~found.in_air
+    deep = plunge & found.beyond_flutes
+    if hit.any() and not (deep.any() and np.argmax(deep) < np.argmax(hit)):  # the first one
+        i = int(np.argmax(hit))
+        raise InputError(
+            f"{source} {moves.label(int(move[i]))}: a rapid (G0) meets material: the cutter "
+            "would crash into the stock; rapid above it or cut with G1 (at s = "
+            f"{samples.s[i] / MM:.3f} mm, {found.axial_depth[i] / MM:.3g} mm deep)")
+    check_plunge_depth(deep, move, moves, tool, source)
+    return plunge.astype(float)

@@ -9,7 +9,7 @@ the calibrated range) as warnings.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,13 +29,20 @@ from feedopt.process.engagement import (
 )
 from feedopt.process.material import MaterialAlongPath, engagement_from_stock
 from feedopt.process.path_radius import check_path_radius
+from feedopt.process.plunge import check_plunge_depth
 from feedopt.process.tool import Tool, load_tool
 from feedopt.units import MM
 
 
 @dataclass(frozen=True, eq=False)
 class ProcessAlongPath:
-    """Tool, coefficients (all speeds, and at the spindle speed), per-sample engagement."""
+    """Tool, coefficients (all speeds, and at the spindle speed), per-sample engagement.
+
+    ``unmodelled_plunge`` (n,) bool marks the samples of straight plunges into material that
+    have no force model because the material file has no plunge coefficients: their
+    engagement carries no plunge (no end-edge force), so the deflection bound does not
+    limit their feed; the caller caps it. An empty array means none (the default).
+    """
 
     tool: Tool
     table: CoefficientTable
@@ -43,6 +50,7 @@ class ProcessAlongPath:
     engagement: Engagement
     warnings: tuple[str, ...]
     material: MaterialAlongPath | None = None  # with a stock: the sweep and the stock
+    unmodelled_plunge: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
 
 def engagement_of(cut, tool: Tool, s: np.ndarray) -> Engagement:
@@ -90,16 +98,53 @@ def feed_range_warnings(table: CoefficientTable, feeds: list[tuple[str, float]],
     return out
 
 
-def in_program_air(engagement: Engagement, moves, samples, stock_top: float) -> Engagement:
-    """The engagement of a program path: none on rapids, plunges and retracts and above the
-    stock top; on cut moves the stated one, its axial depth limited to the material below
-    the tool tip (stock top - z), so ramps and helices enter the cut gradually."""
-    category = moves.category[moves.index_at(samples.s)]
-    depth = np.minimum(engagement.axial_depth, stock_top - samples.position[:, 2])
-    air = (category != "cut") | (depth <= 1e-9)
+#: Depth below the stock top [m] under which a tool tip counts as in the material (1 nm).
+_IN_MATERIAL = 1e-9
+
+
+def in_program_air(engagement: Engagement, moves, samples, stock_top: float,
+                   tool: Tool | None = None, source: str = "the program") -> Engagement:
+    """The engagement of a program path without a stock model: none on rapids and retracts
+    and above the stock top; on cut moves the stated one, its axial depth limited to the
+    material below the tool tip (stock top - z), so ramps and helices enter the cut
+    gradually; on plunges (G1 along -Z) below the stock top a full plunge
+    (``plunge = 1``, :mod:`feedopt.process.plunge`) and no side engagement.
+
+    With ``tool``, a plunge whose tip goes deeper below the stock top than the tool's flute
+    length is refused (InputError naming ``source``, the line and the flute length).
+    """
+    move = moves.index_at(samples.s)
+    category = moves.category[move]
+    below = stock_top - samples.position[:, 2]
+    depth = np.minimum(engagement.axial_depth, below)
+    air = (category != "cut") | (depth <= _IN_MATERIAL)
     depth = np.where(air, engagement.axial_depth, depth)
+    plunge = (category == "plunge") & (below > _IN_MATERIAL)
+    if tool is not None:
+        check_plunge_depth(plunge & (below > tool.flute_length * (1 + 1e-9)), move, moves,
+                           tool, source, below)
     return Engagement(entry=np.where(air, 0.0, engagement.entry),
-                      exit=np.where(air, 0.0, engagement.exit), axial_depth=depth)
+                      exit=np.where(air, 0.0, engagement.exit), axial_depth=depth,
+                      plunge=plunge.astype(float))
+
+
+def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients, moves,
+                       samples, material_name: str) -> tuple[Engagement, np.ndarray, list[str]]:
+    """Without plunge coefficients, the plunging samples lose their plunge (no force model):
+    returns the engagement to use, the (n,) mask of those samples and a warning naming the
+    program lines. With coefficients, the engagement unchanged and an all-False mask."""
+    mask = engagement.plunging
+    if coefficients.plunge is not None or not mask.any():
+        return engagement, np.zeros(engagement.n, dtype=bool), []
+    move = moves.index_at(samples.s[mask]) if moves is not None else np.zeros(0, dtype=int)
+    lines = [moves.label(int(m)) for m in dict.fromkeys(move.tolist())]
+    shown = (", ".join(lines[:10]) + (f" and {len(lines) - 10} more" if len(lines) > 10 else "")
+             or "the path")
+    warning = (f"the plunges straight down into material at {shown} ({int(mask.sum())} "
+               f"samples) have no force model: material file {material_name!r} has no plunge "
+               "coefficients (a plunge: block per speed; feedopt calibrate --plunge-forces "
+               "fits them); the deflection limit does not bound their feed")
+    return engagement.with_plunge(None), mask, [warning]
 
 
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
@@ -116,15 +161,18 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     table = load_coefficients(resolve(scenario.material, "material file"))
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     material = None
+    source = str(getattr(scenario.path, "file", None) or "the program")
     if scenario.stock is not None:
         material = engagement_from_stock(scenario.stock, resolve, tool, samples, moves,
-                                         source=str(scenario.path.file))
+                                         source=source)
         engagement = material.found.engagement
     else:
         engagement = engagement_of(cut, tool, samples.s)
         if moves is not None:
             engagement = in_program_air(engagement, moves, samples,
-                                        scenario.path.stock_top_mm * MM)
+                                        scenario.path.stock_top_mm * MM, tool, source)
+    engagement, unmodelled, plunge_notes = unmodelled_plunges(
+        engagement, coefficients, moves, samples, scenario.material)
     warnings = check_path_radius(samples.s, samples.curvature, samples.segment, segment_names,
                                  0.5 * tool.diameter, cutting=engagement.exit > engagement.entry,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis),
@@ -135,6 +183,7 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     warnings += feed_range_warnings(table, feeds, cut.spindle_rpm, tool)
     if material is not None:
         warnings += material.warnings
+    warnings += plunge_notes
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))
         warnings.append(f"the stock reaches above the flutes of the tool at "
@@ -142,4 +191,5 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                         f"{samples.s[i] / MM:.2f} mm): the shank would rub; the axial depth is "
                         "clipped to the flute length")
     return ProcessAlongPath(tool=tool, table=table, coefficients=coefficients,
-                            engagement=engagement, warnings=tuple(warnings), material=material)
+                            engagement=engagement, warnings=tuple(warnings), material=material,
+                            unmodelled_plunge=unmodelled)

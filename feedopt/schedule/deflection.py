@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
 from feedopt.process.averages import average_forces
 from feedopt.process.forces import (
@@ -30,6 +31,7 @@ from feedopt.process.forces import (
     milling_forces,
     milling_forces_at,
 )
+from feedopt.process.plunge import plunge_mean
 
 LIMIT_MODES = ("norm", "normal", "direction", "residual")
 
@@ -108,15 +110,16 @@ class DeflectionModel:
                               axial_slices=self.axial_slices), inverse
 
     def distinct_engagements(self, index: np.ndarray) -> tuple[Engagement, np.ndarray] | None:
-        """The distinct (entry, exit, depth) rows of samples ``index`` and, per sample, the
-        row it has; None for pieced engagements (a sample's pieces are its own)."""
+        """The distinct (entry, exit, depth, plunge) rows of samples ``index`` and, per
+        sample, the row it has; None for pieced engagements (a sample's pieces are its own)."""
         e = self.engagement
         if e.pieces is not None:
             return None
-        rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index]], axis=1)
+        rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index],
+                         _plunge_of(e)[index]], axis=1)
         unique, inverse = np.unique(rows, axis=0, return_inverse=True)
-        return (Engagement(entry=unique[:, 0], exit=unique[:, 1], axial_depth=unique[:, 2]),
-                inverse.ravel())
+        return (Engagement(entry=unique[:, 0], exit=unique[:, 1], axial_depth=unique[:, 2],
+                           plunge=unique[:, 3]), inverse.ravel())
 
     def chunk_forces(self, sl: slice | np.ndarray) -> ChunkForces:
         """Forces of samples ``sl`` on the angle grid and at their critical angles (where a
@@ -201,7 +204,7 @@ class DeflectionModel:
         eng = self.engagement_slice(sl)
         if eng.pieces is None and eng.n > 1:
             first, row = _same_rows(np.column_stack([eng.entry, eng.exit, eng.axial_depth,
-                                                     angles]))
+                                                     _plunge_of(eng), angles]))
             if first.size <= eng.n // 2:
                 split = milling_forces_at(
                     self.tool, self.coefficients, eng.take(first), np.asarray(angles)[first],
@@ -342,7 +345,8 @@ class DeflectionModel:
         base frame, for samples ``sl``.
 
         From the closed-form average forces of Altintas [39] (thesis Eq. 3.24-3.25,
-        :func:`feedopt.process.averages.average_forces`), summed over a sample's pieces:
+        :func:`feedopt.process.averages.average_forces`), summed over a sample's pieces, plus
+        the mean plunge force (:func:`feedopt.process.plunge.plunge_mean`):
         the exact mean of the slice model (over a whole revolution the helix lag does not
         matter), so ``d(phi) - mean d`` averages to zero over the revolution.
         """
@@ -359,6 +363,12 @@ class DeflectionModel:
                                 1.0) - pe
             np.add.at(edge, p.sample, pe)
             np.add.at(cut, p.sample, pc)
+        if eng.plunge is not None:  # the end edges of a plunge: constant thrust
+            if self.coefficients.plunge is None:
+                raise InputError("the path plunges along the tool axis, but the cutting "
+                                 "coefficients have no plunge block")
+            pc, pe = plunge_mean(self.tool, self.coefficients.plunge, eng.plunge)
+            cut, edge = cut + pc, edge + pe
         cr = self.compliance[sl] @ self.frames[sl]
         return np.einsum("kij,kj->ki", cr, cut), np.einsum("kij,kj->ki", cr, edge)
 
@@ -575,6 +585,11 @@ class GridExtreme:
 
 
 _HASH_WEIGHTS = np.random.default_rng(20261202).uniform(0.5, 1.5, 4096)
+
+
+def _plunge_of(e: Engagement) -> np.ndarray:
+    """The plunge column of ``e`` (zeros without plunges), to key distinct rows on."""
+    return e.plunge if e.plunge is not None else np.zeros(e.n)
 
 
 def _same_rows(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
 from feedopt.cli import main
 from feedopt.errors import InputError
@@ -82,12 +83,65 @@ def test_a_rapid_into_the_stock_is_refused_with_its_line(quick_scenario, tmp_pat
         prepare(sc, base, progress=quiet)
 
 
-def test_a_plunge_into_the_stock_is_refused_with_its_line(quick_scenario, tmp_path):
-    text = HEAD + "G0 X20.\nG1 Z-1. F300.\nG1 X40. F254.\nG0 Z5.\nM30\n"
-    bad = _program_scenario(quick_scenario, tmp_path, text)
-    sc, base = load_scenario(bad)
-    with pytest.raises(InputError, match=r"line 6: a plunge straight down meets material"):
-        prepare(sc, base, progress=quiet)
+PLUNGE_BLOCK = {"thrust_cutting_n_mm2": 1500.0, "thrust_edge_n_mm": 20.0,
+                "torque_cutting_n_mm2": 900.0, "torque_edge_n_mm": 10.0}
+
+
+def _plunge_front(quick_scenario, tmp_path, depth_mm: float, coefficients: bool,
+                  bottom_mm: float = -20.0):
+    """The front of a program that plunges ``depth_mm`` into the stock at line 6 (and leaves
+    by a G1 retract: the first sample of a G0 out of a deep slot's corner blend sees the slot
+    end in the sweep's lookahead and is refused as a rapid into material)."""
+    text = HEAD + f"G0 X20.\nG1 Z-{depth_mm:g} F300.\nG1 X40. F254.\nG1 Z5.\nM30\n"
+    prog = tmp_path / "job.nc"
+    prog.write_text(text)
+    material = yaml.safe_load((SCENARIOS / "materials" / "6061-T6511.yaml").read_text())
+    if coefficients:
+        for speed in material["speeds"]:
+            speed["plunge"] = dict(PLUNGE_BLOCK)
+    mat = tmp_path / "material.yaml"
+    mat.write_text(yaml.safe_dump(material))
+    path = quick_scenario("profile", path__file=str(prog),
+                          stock__box_mm=[-10.0, -10.0, bottom_mm, 140.0, 100.0, 0.0])
+    doc = yaml.safe_load(path.read_text())
+    doc["material"] = str(mat)
+    path.write_text(yaml.safe_dump(doc))
+    sc, base = load_scenario(path)
+    return prepare_front(sc, base, progress=quiet)
+
+
+def _plunge_samples(front) -> np.ndarray:
+    moves, s = front.path.moves, front.samples.s
+    return (moves.category[moves.index_at(s)] == "plunge") & (front.samples.position[:, 2] < 0)
+
+
+def test_a_plunge_into_the_stock_is_a_full_plunge(quick_scenario, tmp_path):
+    front = _plunge_front(quick_scenario, tmp_path, 1.0, coefficients=True)
+    e, inside = front.process.engagement, _plunge_samples(front)
+    assert inside.sum() >= 5
+    assert e.plunging.tolist() == inside.tolist()  # every plunge sample below the top, no other
+    assert np.all(e.exit[inside] == e.entry[inside])  # no side engagement on the way down
+    assert not front.process.unmodelled_plunge.any()
+    assert front.process.coefficients.plunge is not None
+    assert not any("plunge" in w for w in front.process.warnings)
+
+
+def test_a_plunge_without_plunge_coefficients_is_unmodelled_and_named(quick_scenario, tmp_path):
+    front = _plunge_front(quick_scenario, tmp_path, 1.0, coefficients=False)
+    inside = _plunge_samples(front)
+    assert front.process.unmodelled_plunge.tolist() == inside.tolist()
+    assert front.process.engagement.plunge is None  # no force model there
+    notes = [w for w in front.process.warnings if "plunges straight down" in w]
+    assert len(notes) == 1 and "at line 6 (" in notes[0] and "no plunge coefficients" in notes[0]
+
+
+def test_a_plunge_deeper_than_the_flutes_is_refused_with_its_line(quick_scenario, tmp_path):
+    with pytest.raises(InputError, match=r"job.nc line 6: the plunge reaches more than the "
+                                         r"flute length 23.8125 mm of tool"):
+        _plunge_front(quick_scenario, tmp_path, 30.0, coefficients=True, bottom_mm=-40.0)
+    # 20 mm, within the 23.8 mm flutes: modelled
+    assert _plunge_front(quick_scenario, tmp_path, 20.0, coefficients=True,
+                         bottom_mm=-40.0).process.engagement.plunging.any()
 
 
 def test_engagement_command_writes_one_row_per_sample(tmp_path, capsys):
