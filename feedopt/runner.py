@@ -14,6 +14,7 @@ import json
 import sys
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -28,11 +29,20 @@ from feedopt.geometry.path import PathPoints
 from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
 from feedopt.parallel import single_threaded_blas
-from feedopt.process.program import apply_program
+from feedopt.process.program import (
+    apply_program,
+    unmodelled_plunge_moves,
+    unmodelled_plunge_note,
+)
+from feedopt.process.program_stock import resolve_program_stock
+from feedopt.process.program_tool import check_program_tool
 from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
+from feedopt.process.tool import load_tool
 from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
+from feedopt.robot.ik import UnreachableError
 from feedopt.robot.model import RobotModel, load_robot
+from feedopt.robot.placement_search import suggest_workpiece_position
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import (
     Scenario,
@@ -44,7 +54,7 @@ from feedopt.scenario import (
 from feedopt.schedule.compensation import CompensatedPath, CompensationCheck
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
 from feedopt.schedule.polynomial import sample_piece_chunks
-from feedopt.schedule.stage import ScheduleInputs, schedule_problem
+from feedopt.schedule.stage import ScheduleInputs, interior_stop_indices, schedule_problem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM, MS
 from feedopt.verify import Verdict, Verification, is_finite, replay_all
@@ -210,6 +220,11 @@ def prepare_front(
     if path.moves is not None:
         scenario, program_notes = apply_program(scenario, path.moves, scenario.path.file)
     samples = _sample(path, spacing)
+    if scenario.stock is not None and scenario.stock.from_program:
+        scenario, stock_note = resolve_program_stock(
+            scenario, 0.5 * load_tool(resolve(base_dir, scenario.tool, "tool file")).diameter,
+            samples, path.moves, spacing)
+        progress(stock_note)
     for note in scenario.fit_notes():  # a fitted input, before any result it shapes
         progress(f"fit: {note}")
     warnings = scenario_warnings(scenario) + list(path.notes) + program_notes
@@ -230,6 +245,7 @@ def prepare_front(
     placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis, air=air)
     process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
                                  samples, _segment_names(path), moves=path.moves)
+    warnings += check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
     warnings += process.warnings
     times["process"] = time.perf_counter() - t0
     how = ("engagement from the stock" if process.material is not None
@@ -258,10 +274,12 @@ def prepare(
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     x_axes = _x_axes(scenario, placement)
-    with progress_bar(progress, "[3/5] robot IK") as bar:
+    with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
+            robot, scenario, samples):
         along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
                                  np.deg2rad(scenario.robot.start_configuration_deg),
-                                 scenario.robot.stiffness, x_axes=x_axes, progress=bar)
+                                 scenario.robot.stiffness, x_axes=x_axes, progress=bar,
+                                 breaks=interior_stop_indices(path.stops, samples.s))
     warnings += along.warnings
     blockers = early_blockers(robot, path)
     times["robot"] = time.perf_counter() - t0
@@ -307,6 +325,21 @@ def prepare(
                     schedule=schedule, stage_times=times, warnings=warnings,
                     export_blockers=blockers, redundancy=redundancy,
                     nearest_compliance=nearest_compliance)
+
+
+@contextmanager
+def _suggesting_position(robot: RobotModel, scenario: Scenario, samples: PathPoints):
+    """An unreachable sample's error, with a workpiece position that reaches the path (or
+    "none found")."""
+    try:
+        yield
+    except UnreachableError as exc:
+        wp = scenario.workpiece
+        hint = suggest_workpiece_position(
+            robot, samples.position, wp.position_mm, wp.rpy_deg, wp.tool_axis,
+            np.deg2rad(scenario.robot.start_configuration_deg),
+            scenario.robot.fix_tool_rotation)
+        raise InputError(f"{exc}; {hint}") from None
 
 
 def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
@@ -443,7 +476,8 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
     def along_at(commanded: np.ndarray) -> RobotAlongPath:
         return robot_along_path(prepared.robot, samples.s, commanded,
                                 prepared.placement.tool_axes, q_start, sc.robot.stiffness,
-                                x_axes=x_axes)
+                                x_axes=x_axes,
+                                breaks=interior_stop_indices(prepared.path.stops, samples.s))
 
     for law, res in results.items():
         t0 = time.perf_counter()
@@ -508,6 +542,19 @@ def _monotone_within_path(trajectory: Trajectory, length: float) -> bool:
                for s in map(pp, sample_piece_chunks(pp.x, 9)))
 
 
+def export_notes(prepared: Prepared) -> tuple[str, ...]:
+    """What every exported file's header says about the run beyond its law: plunges that
+    are not deflection-limited (no plunge coefficients)."""
+    moves = prepared.path.moves
+    if moves is None:
+        return ()
+    note = unmodelled_plunge_note(
+        moves, unmodelled_plunge_moves(moves, prepared.samples.s,
+                                       prepared.process.unmodelled_plunge),
+        prepared.scenario.feed.plunge_max_mm_s)
+    return () if note is None else (note,)
+
+
 def write_outputs(
     prepared: Prepared,
     results: dict[str, LawResult],
@@ -539,6 +586,7 @@ def write_outputs(
                                                       in prepared.declined.items()],
                "declined_laws": dict(prepared.declined), "laws": {}}
     series, pending = [], []
+    notes = export_notes(prepared)
     for law, res in results.items():
         entry = law_summary(prepared, res)
         ver = res.verification
@@ -577,6 +625,7 @@ def write_outputs(
                 unverified_on_request=not ver.exportable,
                 native_program=bool(spec is not None and spec.native_program),
                 blockers=prepared.export_blockers, tool_axes=prepared.placement.tool_axes,
+                notes=notes,
             )
             pending.append((law, entry, job))
         times[("export", law)] = time.perf_counter() - t0
@@ -752,7 +801,6 @@ def validate_scenario(scenario_path: str | Path) -> str:
     """Check a scenario without planning: schema, files, robot, tool, material, path, stock."""
     from feedopt.process.coefficients import load_coefficients
     from feedopt.process.material import check_stock
-    from feedopt.process.tool import load_tool
 
     scenario, base_dir = load_scenario(scenario_path)
     tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))
@@ -761,11 +809,15 @@ def validate_scenario(scenario_path: str | Path) -> str:
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
+        check_program_tool(path, tool, scenario.path.file, scenario.tool)
     table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
     stock = ""
     if scenario.stock is not None:  # built (bounded) as a run builds it; path beside it refused
+        samples = _sample(path, scenario.path.spacing_mm * MM)
+        scenario, _ = resolve_program_stock(scenario, 0.5 * tool.diameter, samples, path.moves,
+                                            scenario.path.spacing_mm * MM)
         zmap, notes = check_stock(scenario.stock, lambda rel, what: resolve(base_dir, rel, what),
-                                  tool, _sample(path, scenario.path.spacing_mm * MM).position)
+                                  tool, samples.position)
         units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
                  else "")
         stock = (f"; stock {zmap.shape[0]} x {zmap.shape[1]} cells of {zmap.cell / MM:g} mm"

@@ -137,11 +137,18 @@ class PathSection(_Strict):
     air_tolerance_mm: PositiveFloat = Field(0.5, description="gcode: the same between air "
                                             "moves (rapids, plunges, retracts) (mm)")
     arc_tolerance_mm: PositiveFloat = Field(0.002, description="gcode: largest difference of "
-                                            "an arc's start and end radius (mm)")
+                                            "an arc's start and end radius (mm); the reader "
+                                            "allows 2*sqrt(2) units of the program's last "
+                                            "written decimal if that is more (and says so)")
+    dwell_p_units: Literal["s", "ms"] = Field("s", description="gcode: unit of G4's P word: s "
+                                              "(seconds: RS-274/NGC, LinuxCNC, Haas P1.5) or "
+                                              "ms (Fanuc posts: P1000 = 1 s); G4 X is always "
+                                              "seconds")
     stock_top_mm: FiniteFloat = Field(0.0, description="gcode without a stock: section: Z of "
                                       "the stock's top face in the program frame (CAM "
                                       "convention: G54 Z0 on top); cut moves above it are in "
-                                      "air, plunges below it refused")
+                                      "air, plunges below it take the cutting tolerance, an "
+                                      "air link (tool change, G28, G53) below it is refused")
     chain_max_move_mm: PositiveFloat = Field(2.0, description="gcode: G1 cut moves up to this "
                                              "long may be smoothed together as a free-form "
                                              "chain (mm)")
@@ -232,6 +239,10 @@ class StockSection(_Strict):
         None, description="box of stock in W: [x0, y0, z0, x1, y1, z1] (mm)")
     mesh: str | None = Field(None, description="closed triangle mesh of the stock (STL, binary "
                              "or ASCII, in W, in stock.units); tops per cell by vertical rays")
+    from_program: bool = Field(False, description="gcode: a box made from the program: from "
+                               "path.stock_top_mm down to the deepest cut, around the cutting "
+                               "moves (and plunges below the top) widened by the tool radius; "
+                               "stated in the console")
     units: Literal["mm", "m"] | None = Field(None, description="units of the stock.mesh STL "
                                              "coordinates (STL stores none): mm (default, the "
                                              "CAD convention) or m; only with mesh (box_mm is "
@@ -252,8 +263,8 @@ class StockSection(_Strict):
 
     @model_validator(mode="after")
     def _one_shape(self) -> StockSection:
-        if (self.box_mm is None) == (self.mesh is None):
-            raise ValueError("give exactly one of box_mm and mesh")
+        if (self.box_mm is not None) + (self.mesh is not None) + self.from_program != 1:
+            raise ValueError("give exactly one of box_mm, mesh and from_program: true")
         if self.units is not None and self.mesh is None:
             raise ValueError("units applies to stock.mesh only (box_mm is always in mm): "
                              "remove units")
@@ -275,6 +286,11 @@ class FeedSection(_Strict):
     rapid_mm_s: PositiveFloat | None = Field(None, description="gcode: largest TCP speed of "
                                              "rapids (G0) (default: only the robot's joint "
                                              "velocity limits)")
+    plunge_max_mm_s: PositiveFloat | None = Field(None, description="gcode: largest feed of "
+                                                  "straight plunges into material when the "
+                                                  "material file has no plunge coefficients "
+                                                  "(then they are not deflection-limited; "
+                                                  "default: the program's F)")
     start_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the start")
     end_mm_s: Annotated[float, Field(ge=0)] = Field(0.0, description="feed at the end")
 
@@ -492,6 +508,11 @@ class Scenario(_Strict):
             raise ValueError("cut.spindle_rpm: required (the spindle speed, rev/min)")
         if self.feed.rapid_mm_s is not None and not program:
             raise ValueError("feed.rapid_mm_s: only a G-code program has rapids; remove it")
+        if self.feed.plunge_max_mm_s is not None and not program:
+            raise ValueError("feed.plunge_max_mm_s: only a G-code program has plunges; remove it")
+        if self.stock is not None and self.stock.from_program and not program:
+            raise ValueError("stock.from_program: only a G-code program gives a stock; use "
+                             "stock.box_mm or stock.mesh")
         if self.stock is None and (self.cut.type is None or self.cut.axial_depth_mm is None):
             raise ValueError("cut.type and cut.axial_depth_mm: required without a stock (or "
                              "give stock: {box_mm: [...]} for the engagement from the material)")

@@ -35,7 +35,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.frames import frames_header_lines
-from feedopt.export.job import Exporter, ExportJob, status_line
+from feedopt.export.job import Exporter, ExportJob, header_notes, status_line
 from feedopt.units import MM, MM_PER_M
 
 #: Largest relative drop of a block's F below the law's feed inside the block.
@@ -253,6 +253,7 @@ def export_gcode(job: ExportJob, out_dir: Path) -> dict:
     text = gcode_text(p, target, line_sample, seg_ends.tolist(), comments=[
         status_line(job),
         *frames_header_lines(job.robot),
+        *header_notes(job),
         "G-code frame: the robot base frame [mm]; tool axis = +Z. KUKA.CNC: BASE_DATA = "
         "$NULLFRAME, G54 = 0.",
         f"F per block [mm/min]: the law's feed, at most {FEED_TOLERANCE:.0%} below it within a "

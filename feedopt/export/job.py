@@ -78,6 +78,8 @@ class ExportJob:
         columns and ``path_in_base`` are then the commanded path.
     tool_axes : (n, 3) unit tool axis at the path samples in the base frame (what the IK
         holds), shared by every law's job; None: from the FK of ``problem.q``.
+    notes : what every file's header must say about the run beyond the law (moves that are
+        not deflection-limited, e.g. plunges without plunge coefficients).
     """
 
     law: str
@@ -96,6 +98,7 @@ class ExportJob:
     blockers: dict[str, Blocker] = field(default_factory=dict)
     compensation: object | None = None
     tool_axes: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     @cached_property
     def controller_joints(self) -> np.ndarray:
@@ -120,6 +123,31 @@ class ExportJob:
         from feedopt.robot.model import forward_kinematics
 
         return forward_kinematics(self.robot, self.problem.q)[:, :3, 2]
+
+
+#: Stops listed one per header line up to this many; more are summarised.
+MAX_STOP_LINES = 20
+
+
+def header_notes(job: ExportJob) -> list[str]:
+    """The lines every exported file's header carries about the plan (without comment
+    marks): the run's :attr:`ExportJob.notes`, then the stops of the path with the time the
+    law reaches each (feed, acceleration zero there; held for a dwell). At an M0/M1 the
+    operator presses Start on a CNC; an exported stream or program does not wait there."""
+    out = list(job.notes)
+    stops = job.problem.stops
+    if stops is None or not len(stops):
+        return out
+    t = job.trajectory.time_at(job.problem.s[stops.index])
+    out.append(f"{len(stops)} stop(s) in the path (feed, acceleration zero; a dwell holds "
+               "its time; M0/M1: the exported motion does NOT wait for the operator's Start)")
+    for k in range(min(len(stops), MAX_STOP_LINES)):
+        hold = f", held {stops.hold_s[k]:g} s" if stops.hold_s[k] > 0 else ""
+        out.append(f"  stop at t = {t[k]:.3f} s, s = {job.problem.s[stops.index[k]] * 1e3:.3f}"
+                   f" mm: {stops.kind[k]}{hold} ({stops.label[k]})")
+    if len(stops) > MAX_STOP_LINES:
+        out.append(f"  ... and {len(stops) - MAX_STOP_LINES} more (summary.json: stops)")
+    return out
 
 
 @dataclass(frozen=True)

@@ -57,7 +57,7 @@ from feedopt.export.frames import (
     entry_exit,
     header_lines,
 )
-from feedopt.export.job import Blocker, Exporter, ExportJob, status_line
+from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
 from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
@@ -574,6 +574,7 @@ def export_krl(job: ExportJob, out_dir: Path, spindle: SpindleControl = SpindleC
             status_line(job),
             f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with "
             "the law's feeds as $VEL.CP",
+            *header_notes(job),
         ], frames=frames, entry=entry, spindle=spindle)
     except InputError as exc:
         return {"krl_program": None, "krl_not_written": f"no KRL program: {exc}"}

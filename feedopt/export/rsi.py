@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.job import Exporter, ExportJob, status_line
+from feedopt.export.job import Exporter, ExportJob, header_notes, status_line
 from feedopt.floattext import refuse_non_finite, write_float_rows
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
@@ -306,6 +306,7 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
         "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
         "deflection = predicted static deflection at the commanded feed",
         *frames_header_lines(job.robot),
+        *header_notes(job),
     ])
     return {"fk_vs_path_error_mm": interp_error / MM, "rsi_csv": f"{job.law}.csv"}
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.frames import APPROACH_MM, cell_frames, header_lines, joints_at_offsets
-from feedopt.export.job import Blocker, Exporter, ExportJob, status_line
+from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
 from feedopt.rsi.corrections import (
     CorrectionMode,
     CorrectionPlan,
@@ -243,7 +243,7 @@ def export_rsi_program(job: ExportJob, out_dir: Path) -> dict:
     name = f"{job.law}_rsi"
     status = status_line(job)
     frames = cell_frames(job.robot)
-    frame_lines = header_lines(frames)
+    frame_lines = (*header_lines(frames), *header_notes(job))
     write_corrections_csv(out_dir / f"{name}.csv", plan, CorrectionMode.ABSOLUTE, comments=[
         status, *frame_lines,
         f"from {csv.name}; stream it with: feedopt stream {csv.name} --listen IP:PORT"])

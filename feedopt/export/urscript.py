@@ -37,7 +37,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.frames import cell_frames, entry_exit, header_lines
-from feedopt.export.job import Blocker, Exporter, ExportJob, status_line
+from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
 
 #: servoj time per set-point [s]: the CB3 real-time cycle (125 Hz), valid on e-Series too.
 CYCLE_S = 0.008
@@ -186,7 +186,7 @@ def export_urscript(job: ExportJob, out_dir: Path, cycle_s: float = CYCLE_S,
             q_above=entry.q_above_lead_in, q_lead_in=entry.q_lead_in,
             q_lead_out=entry.q_lead_out, q_retract=entry.q_retract,
             lead_speed_m_s=(float(target[0]), float(target[-1])), spindle=spindle,
-            comments=(status_line(job), *header_lines(frames),
+            comments=(status_line(job), *header_lines(frames), *header_notes(job),
                       f"servoj every {cycle_s:g} s: {job.trajectory.duration:.4f} s of cutting"))
     except InputError as exc:
         return {"urscript_program": None, "urscript_not_written": f"no URScript: {exc}"}

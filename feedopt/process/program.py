@@ -67,3 +67,24 @@ def apply_program(scenario, moves, source: str):
             f" mm/s); each move's F is its nominal feed, {nominal:.4g} mm/s (the longest "
             "stretch) is reported as the nominal")
     return updated, warnings
+
+
+def unmodelled_plunge_moves(moves, s: np.ndarray, plunge: np.ndarray | None) -> list[int]:
+    """Indices of the program moves holding samples ``s`` that plunge into material without
+    a plunge model (``plunge``: per sample, from the process stage), in program order."""
+    if plunge is None or not np.any(plunge):
+        return []
+    return np.unique(moves.index_at(s[np.asarray(plunge, dtype=bool)])).tolist()
+
+
+def unmodelled_plunge_note(moves, indices: list[int], cap_mm_s: float | None) -> str | None:
+    """The sentence every output carries about plunges planned without a plunge model."""
+    if not indices:
+        return None
+    shown = ", ".join(moves.label(i) for i in indices[:10])
+    more = f" and {len(indices) - 10} more" if len(indices) > 10 else ""
+    cap = ("the program's F" if cap_mm_s is None
+           else f"the program's F, at most feed.plunge_max_mm_s = {cap_mm_s:g} mm/s")
+    return (f"not deflection-limited: no plunge coefficients in the material file: "
+            f"{len(indices)} straight plunge(s) into material run at {cap} ({shown}{more}); "
+            "add a plunge: block (feedopt calibrate) to bound them")

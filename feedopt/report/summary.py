@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from feedopt.process.program import unmodelled_plunge_moves
 from feedopt.units import MM
 
 if TYPE_CHECKING:
@@ -66,7 +67,21 @@ def program_summary(prepared: Prepared) -> dict | None:
                          "label": moves.label(move), "s_mm": s[low] / MM,
                          "v_max_mm_s": v[low] / MM},
         "largest_deviation": worst,
+        "stops": _stops(prepared.problem),
+        "unmodelled_plunges": [
+            {"label": moves.label(i), "line": int(moves.line[i])}
+            for i in unmodelled_plunge_moves(moves, s, prepared.process.unmodelled_plunge)],
     }
+
+
+def _stops(problem) -> list[dict]:
+    """summary.json ``program.stops``: where the path stops, why and for how long."""
+    stops = problem.stops
+    if stops is None:
+        return []
+    return [{"kind": stops.kind[k], "label": stops.label[k],
+             "s_mm": float(problem.s[stops.index[k]]) / MM, "hold_s": float(stops.hold_s[k])}
+            for k in range(len(stops))]
 
 
 def _redundancy(result) -> dict | None:

@@ -692,8 +692,14 @@ def _describe(k: int, position: np.ndarray, axis: np.ndarray) -> str:
     )
 
 
-def _unreachable(task: _Task, k: int, position_error: float, angle_error: float) -> InputError:
-    return InputError(
+class UnreachableError(InputError):
+    """A path sample the IK cannot reach (Newton did not converge): bad input, exit 2; the
+    runner may add a workpiece position that does reach the path."""
+
+
+def _unreachable(task: _Task, k: int, position_error: float, angle_error: float
+                 ) -> UnreachableError:
+    return UnreachableError(
         f"IK: {_describe(k, task.positions[k], task.tool_axes[k])} is unreachable: Newton did "
         f"not converge (residual {position_error / MM:.3g} mm, {np.rad2deg(angle_error):.3g} "
         "deg); move the workpiece closer to the robot or change q_start"

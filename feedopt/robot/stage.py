@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.interpolate import CubicSpline
+from scipy.interpolate import CubicSpline, PPoly
 
 from feedopt.errors import InputError
 from feedopt.robot.ik import IKOptions, PathIK, solve_path_ik
@@ -36,8 +36,9 @@ class RobotAlongPath:
     compliance : (n, 3, 3) array
         Translational TCP compliance [m/N]: deflection per force on the tool at the TCP,
         ``C = (J K^-1 J^T)[:3, :3]`` (Eq. 3.19; Eq. 3.20 with the DPP set).
-    q_of_s : CubicSpline
-        ``q(s)`` through the samples (axis 0; not-a-knot ends) [rad] of arc length [m].
+    q_of_s : CubicSpline or PPoly
+        ``q(s)`` through the samples (axis 0; not-a-knot ends; one spline per piece between
+        stops, :func:`joint_spline`) [rad] of arc length [m].
     dq_ds, d2q_ds2 : (n, dof) arrays
         ``q'(s)`` [rad/m] and ``q''(s)`` [rad/m^2] of ``q_of_s`` at the samples.
     warnings : tuple of str
@@ -47,7 +48,7 @@ class RobotAlongPath:
 
     ik: PathIK
     compliance: np.ndarray
-    q_of_s: CubicSpline
+    q_of_s: PPoly
     dq_ds: np.ndarray
     d2q_ds2: np.ndarray
     warnings: tuple[str, ...] = ()
@@ -92,6 +93,19 @@ def _translational_compliance(jacobians: np.ndarray, k: np.ndarray) -> np.ndarra
     return out
 
 
+def joint_spline(s: np.ndarray, q: np.ndarray, breaks: np.ndarray | None = None) -> PPoly:
+    """``q(s)`` as a cubic spline through the samples (not-a-knot ends), one per piece
+    between the ``breaks`` (interior sample indices where the path may have a corner: a stop),
+    joined into one piecewise polynomial: continuous there, its derivatives one-sided (the
+    following piece's at the break itself). Without breaks: one :class:`CubicSpline`."""
+    if breaks is None or len(breaks) == 0:
+        return CubicSpline(s, q, axis=0)
+    edges = np.unique(np.concatenate([[0], np.asarray(breaks, dtype=int), [s.size - 1]]))
+    parts = [CubicSpline(s[a:b + 1], q[a:b + 1], axis=0) for a, b in zip(edges[:-1], edges[1:],
+                                                                         strict=True)]
+    return PPoly(np.concatenate([p.c for p in parts], axis=1), s, extrapolate=True)
+
+
 def robot_along_path(
     robot: RobotModel,
     s: np.ndarray,
@@ -102,6 +116,7 @@ def robot_along_path(
     x_axes: np.ndarray | None = None,
     ik_options: IKOptions | None = None,
     progress: Callable[[int, int], None] | None = None,
+    breaks: np.ndarray | None = None,
 ) -> RobotAlongPath:
     """Solve the robot stage along a sampled path.
 
@@ -124,6 +139,9 @@ def robot_along_path(
         IK tunables; ``None``: the defaults.
     progress : callable or None
         ``progress(done, total)`` during the IK (:func:`~feedopt.robot.ik.solve_path_ik`).
+    breaks : (k,) int array or None
+        Interior sample indices where the path stops and may turn (a corner, a reversal):
+        ``q(s)`` is one cubic spline per piece between them (:func:`joint_spline`).
 
     Returns
     -------
@@ -141,7 +159,7 @@ def robot_along_path(
                        jacobians=True, progress=progress)
     compliance = _translational_compliance(ik.jacobian, k)
     ik = replace(ik, jacobian=None)  # (n, 6, dof): not kept
-    q_of_s = CubicSpline(s, ik.q, axis=0)
+    q_of_s = joint_spline(s, ik.q, breaks)
     return RobotAlongPath(
         ik=ik,
         compliance=compliance,

@@ -15,7 +15,7 @@ from feedopt.errors import InputError
 from feedopt.schedule.bounds import BoundInputs, FeedBound, feed_bound
 from feedopt.schedule.checks import check_boundary_feeds
 from feedopt.schedule.deflection import DeflectionModel
-from feedopt.schedule.problem import ScheduleProblem
+from feedopt.schedule.problem import ScheduleProblem, StopSamples
 from feedopt.units import MM
 
 
@@ -66,6 +66,48 @@ def programmed_feed(moves, s: np.ndarray, feed) -> tuple[np.ndarray, np.ndarray]
     return np.where(rapid, cap, moves.feed[move]), rapid
 
 
+def unmodelled_plunge_cap(max_feed: np.ndarray, programmed: np.ndarray,
+                          plunge: np.ndarray | None, cap_mm_s: float | None) -> np.ndarray:
+    """The feed cap on plunges the force model does not cover (no plunge coefficients in
+    the material file): there the program's F, capped by ``feed.plunge_max_mm_s``, is all
+    that limits the feed (never ``feed.max_mm_s``: nothing bounds their deflection; they
+    are labelled, not deflection-limited)."""
+    if plunge is None or not plunge.any():
+        return max_feed
+    cap = np.inf if cap_mm_s is None else cap_mm_s * MM
+    return np.where(plunge, np.minimum(programmed, cap), max_feed)
+
+
+def stop_samples(stops, s: np.ndarray) -> StopSamples | None:
+    """The path's stops (:class:`feedopt.geometry.stops.StopTable`, None: none) as sample
+    indices: the sampler puts a sample exactly at every stop."""
+    if stops is None or len(stops) == 0:
+        return None
+    index = np.searchsorted(s, stops.s)
+    index = np.clip(index, 0, s.size - 1)
+    off = np.abs(s[index] - stops.s)
+    if np.any(off > 1e-9 * max(1.0, float(s[-1]))):
+        k = int(np.argmax(off))
+        raise RuntimeError(f"stop {stops.label[k]} at s = {stops.s[k]:.9g} m is not a path "
+                           f"sample (nearest {s[index[k]]:.9g} m): the sampler must place it")
+    hold = np.asarray(stops.hold_s, dtype=float)
+    interior = (index > 0) & (index < s.size - 1)
+    if not np.any(interior | (hold > 0)):
+        return None
+    return StopSamples(index=index, hold_s=hold, kind=tuple(stops.kind),
+                       label=tuple(stops.label))
+
+
+def interior_stop_indices(stops, s: np.ndarray) -> np.ndarray | None:
+    """Sample indices of the stops strictly inside the path (where the joint path is split
+    into pieces, :func:`feedopt.robot.stage.joint_spline`); None without any."""
+    found = stop_samples(stops, s)
+    if found is None:
+        return None
+    inside = found.index[(found.index > 0) & (found.index < s.size - 1)]
+    return np.unique(inside) if inside.size else None
+
+
 def schedule_problem(scenario, process, robot, along, placement, samples,
                      path, progress=None) -> ScheduleInputs:
     """Build the deflection model, v_max(s) and the schedule problem of ``scenario``.
@@ -100,6 +142,8 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         programmed, rapid = programmed_feed(path.moves, samples.s, feed)
         max_feed = programmed if feed.max_mm_s is None else np.where(
             rapid, programmed, feed.max_mm_s * MM)
+        max_feed = unmodelled_plunge_cap(max_feed, programmed, process.unmodelled_plunge,
+                                         feed.plunge_max_mm_s)
     qd_max = robot.joint_velocity_max * limits.joint_velocity_scale
     qdd_max = robot.joint_acceleration_max * limits.joint_acceleration_scale
     dq_ds = along.dq_ds  # q'(s) at the samples, from the robot stage
@@ -129,6 +173,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         key_point_spacing=sched.key_point_spacing_mm * MM,
         programmed_feed=(None if programmed is None else np.minimum(
             programmed, bound.parts.get("joint_velocity", np.inf))),
+        stops=stop_samples(path.stops, samples.s),
     )
     # Once, before any law, naming the scenario's fields (every law repeats it for itself).
     check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),
