@@ -4,6 +4,7 @@ value, and are never applied to the plant; refused answers are reported."""
 
 from __future__ import annotations
 
+import re
 import socket
 import threading
 
@@ -75,7 +76,11 @@ def test_a_correction_beyond_the_limits_stops_rsi(values, what, capsys) -> None:
     out, err = capsys.readouterr()
     assert code == 3, (out, err)
     assert "rsi-sim correction limit: 51 cycles" in out
-    assert "answers refused: 51 not RSI, 0 with another IPOC or Sen Type" in out
+    # On a loaded machine an answer can miss its 4 ms cycle: it then arrives in the next one
+    # and is refused for its old IPOC. Every such refusal is a late answer, counted as one.
+    late = int(re.search(r"(\d+) late answer", out).group(1))
+    stale = int(re.search(r"51 not RSI, (\d+) with another IPOC or Sen Type", out).group(1))
+    assert stale <= late, out
     assert "RSI stopped with an error at cycle 51 (IPOC 1000200)" in err
     assert what in err and "the correction was not applied" in err
 
