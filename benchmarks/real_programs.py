@@ -202,6 +202,40 @@ def load_template(template: Path, tool: Path | None = None) -> dict:
     return data
 
 
+def program_tool(program: Path, template_tool: str, folder: Path) -> str | None:
+    """A tool file for the flat end mill the program's tool comment names, written to
+    ``folder``; None when the program cannot be read or names no flat end mill with a diameter.
+
+    The comment gives the diameter only: the teeth (2), helix (30 deg) and lengths are
+    assumptions written into the file's ``source``; the rest is the template's tool.
+    """
+    from feedopt.errors import InputError
+    from feedopt.gcode import read_gcode
+    from feedopt.gcode.moves import ToolShape
+    from feedopt.process.program_tool import header_for
+
+    try:
+        prog = read_gcode(program)
+    except (InputError, OSError, ValueError):
+        return None
+    cutting = [m.tool for m in prog.moves if m.kind.value != "rapid" and m.tool is not None]
+    header = header_for(prog.tool_headers, cutting[0] if cutting else None)
+    if (header is None or header.diameter_mm is None or header.shape not in
+            (ToolShape.FLAT, ToolShape.OTHER) or (header.corner_radius_mm or 0.0) > 0.0):
+        return None
+    base = yaml.safe_load(Path(template_tool).read_text(encoding="utf-8"))
+    d = header.diameter_mm
+    flute = max(3.0 * d, abs(header.z_min_mm or 0.0) + d)
+    base.update(source=f"assumed by benchmarks/real_programs.py from {program.name} line "
+                f"{header.line} (diameter); teeth, helix and lengths assumed",
+                name=f"flat end mill {d:g} mm (from the program's comment)",
+                diameter_mm=d, teeth=2, helix_deg=30.0, flute_length_mm=flute,
+                overall_length_mm=flute + 4.0 * d, shank_diameter_mm=d)
+    out = folder / "tool.yaml"
+    out.write_text(yaml.safe_dump(base, sort_keys=False), encoding="utf-8")
+    return str(out)
+
+
 def scenario_for(template: dict, program: Path, program_stock: bool) -> dict:
     """The template for one program: its name, ``path.file``, and the stock or fallback cut."""
     sc = copy.deepcopy(template)
@@ -241,14 +275,17 @@ def run_summary(summary_file: Path) -> str:
 
 
 def run_run(program: Path, template: dict, program_stock: bool, laws: str,
-            timeout_s: float) -> Outcome:
+            timeout_s: float, tool_from_program: bool = False) -> Outcome:
     """``feedopt run`` on the template made for ``program``, in a temporary folder."""
     with tempfile.TemporaryDirectory(prefix="feedopt_real_") as tmp:
         scen_dir = Path(tmp) / "scenario"
         scen_dir.mkdir()
         scen = scen_dir / "scenario.yaml"
-        scen.write_text(yaml.safe_dump(scenario_for(template, program, program_stock),
-                                       sort_keys=False), encoding="utf-8")
+        sc = scenario_for(template, program, program_stock)
+        tool = program_tool(program, sc["tool"], scen_dir) if tool_from_program else None
+        if tool is not None:
+            sc["tool"] = tool
+        scen.write_text(yaml.safe_dump(sc, sort_keys=False), encoding="utf-8")
         out_dir = Path(tmp) / "out"
         cmd = [sys.executable, "-m", "feedopt.cli", "run", str(scen), "--out", str(out_dir),
                "--no-report"]
@@ -388,6 +425,9 @@ def _parser() -> argparse.ArgumentParser:
                     "(default convex,programmed; empty: the template's list)")
     ap.add_argument("--tool", type=Path, help="tool file for every run instead of the "
                     "template's (e.g. tests/data/gcode/posts/tool_6mm_2flute.yaml)")
+    ap.add_argument("--tool-from-program", action="store_true", help="a program whose "
+                    "tool comment names a flat end mill runs with a tool file of that "
+                    "diameter (2 teeth, 30 deg helix assumed); others with the template's")
     ap.add_argument("--jobs", type=int, default=1, help="programs at once (default 1)")
     return ap
 
@@ -405,7 +445,8 @@ def main(argv: list[str] | None = None) -> int:
     def one(p: Path) -> Row:
         path = run_path(p, args.timeout)
         run = (None if template is None else
-               run_run(p, template, program_stock, args.laws, args.timeout))
+               run_run(p, template, program_stock, args.laws, args.timeout,
+                       args.tool_from_program))
         return Row(p, source_of(p, args.folders), line_count(p), path, run)
 
     previous = signal.signal(signal.SIGTERM, _interrupt)
@@ -427,6 +468,8 @@ def main(argv: list[str] | None = None) -> int:
         stock = ("stock: {from_program: true}" if program_stock else
                  f"no stock.from_program in this feedopt: stock left out, cut {FALLBACK_CUT}")
         tool = f", tool {args.tool}" if args.tool is not None else ""
+        if args.tool_from_program:
+            tool += ", the program's flat end mill where its comment names one"
         report = (f"Run template: {args.run}{tool}, laws {args.laws or '(template)'}; "
                   f"{stock}.\n\n" + report)
     print(report, end="")
