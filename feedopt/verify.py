@@ -5,7 +5,9 @@ is turned into a feed per tooth, the milling force F = c Fc + Fe is recomputed o
 revolution, rotated into the base frame and multiplied by the robot's compliance; the
 largest deflection must stay within the limit (1e-6 relative). The kinematic part
 (:func:`feedopt.schedule.checks.check_timing`) checks the feed bound, tangential
-acceleration and jerk, joint limits, boundary feeds and C2 continuity with numbers.
+acceleration and jerk, joint limits (everywhere along the trajectory: q(s(t)) is replayed
+between the samples too, where a corner shorter than a sample makes the joint accelerations
+peak), boundary feeds and C2 continuity with numbers.
 
 Two verdicts come out. ``verified``: the law kept every promise it makes (the constant
 baseline does not promise the deflection limit; topp does not promise C2). ``exportable``:

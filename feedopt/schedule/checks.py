@@ -1,7 +1,10 @@
 """Kinematic checks of a trajectory against its problem (used by laws' tests and verify.py).
 
 Everything is evaluated on the path samples (never only on a solver grid) and at the
-polynomial breakpoints, where continuity is measured as left/right jumps. Numbers are SI
+polynomial breakpoints, where continuity is measured as left/right jumps; the joint velocities
+and accelerations also between the samples (:func:`feedopt.schedule.joints.dense_joint_extrema`:
+q(s(t)) replayed on every sample interval where they can exceed their values at the samples,
+its maximum refined), since a corner shorter than a sample makes them peak there. Numbers are SI
 inside; every problem string is in user units (mm, mm/s, mm/s^2, mm/s^3, deg/s) with the
 unit written, limits included.
 
@@ -25,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.schedule.joints import dense_joint_extrema
 from feedopt.schedule.polynomial import horner, sample_piece_chunks, sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
@@ -153,7 +157,9 @@ class Ramp:
 class TimingCheck:
     """Numbers that say whether a timing law respects the bounds it was given.
 
-    SI units. ``feed_ratio`` is max over samples of sdot / v_max (<= 1 + rtol to pass). Jumps
+    SI units. ``feed_ratio`` is max over samples of sdot / v_max (<= 1 + rtol to pass);
+    ``joint_velocity_ratio`` and ``joint_acceleration_ratio`` are the largest |joint rate| /
+    limit anywhere along the trajectory (the dense replay, not only the samples). Jumps
     are the largest left/right differences at interior breakpoints; ``c2`` says the
     acceleration jump is at numerical-noise level. ``min_cutting_feed`` is the smallest feed
     of the trajectory between ``start_ramp`` and ``stop_ramp`` (exact: taken at the
@@ -424,26 +430,20 @@ def check_timing(
               if a_jump.size else "")
         report(Violation.C2, f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")
 
-    # Joint velocity and acceleration at the samples.
-    qd = problem.dq_ds * motion.sdot[:, None]
-    qdd = problem.d2q_ds2 * motion.sdot[:, None] ** 2 + problem.dq_ds * motion.sddot[:, None]
-    jv_ratio = np.abs(qd) / problem.joint_velocity_max
-    ja_ratio = np.abs(qdd) / problem.joint_acceleration_max
-    jv = float(np.max(jv_ratio))
-    ja = float(np.max(ja_ratio))
-    for kind, what, unit, values, limits, r in (
-        (Violation.JOINT_VELOCITY, "velocity", "deg/s", qd, problem.joint_velocity_max,
-         jv_ratio),
-        (Violation.JOINT_ACCELERATION, "acceleration", "deg/s^2", qdd,
-         problem.joint_acceleration_max, ja_ratio),
+    # Joint velocity and acceleration of q(s(t)) between the samples too (dense replay).
+    joints = dense_joint_extrema(trajectory, problem, t_samples)
+    for kind, what, unit, e, limits in (
+        (Violation.JOINT_VELOCITY, "velocity", "deg/s", joints.velocity,
+         problem.joint_velocity_max),
+        (Violation.JOINT_ACCELERATION, "acceleration", "deg/s^2", joints.acceleration,
+         problem.joint_acceleration_max),
     ):
-        if float(np.max(r)) > 1 + rtol:
-            i, j = np.unravel_index(int(np.argmax(r)), r.shape)
+        if e.ratio > 1 + rtol:
             report(
                 kind,
-                f"joint {j + 1} {what} {np.rad2deg(abs(values[i, j])):.4g} {unit} exceeds its "
-                f"limit {np.rad2deg(limits[j]):.4g} {unit} ({r[i, j]:.4f} x) at "
-                f"s = {problem.s[i] / MM:.3f} mm (sample {i})"
+                f"joint {e.joint + 1} {what} {np.rad2deg(abs(e.value)):.4g} {unit} exceeds its "
+                f"limit {np.rad2deg(limits[e.joint]):.4g} {unit} ({e.ratio:.4f} x) at "
+                f"s = {e.s / MM:.3f} mm ({e.where})"
             )
 
     # Boundary feeds at the first and last instant (inverting a flat s(t) at rest is
@@ -475,8 +475,8 @@ def check_timing(
         velocity_jump=vj,
         accel_jump=aj,
         c2=c2,
-        joint_velocity_ratio=jv,
-        joint_acceleration_ratio=ja,
+        joint_velocity_ratio=joints.velocity.ratio,
+        joint_acceleration_ratio=joints.acceleration.ratio,
         start_feed=start,
         end_feed=end,
         start_ramp=start_ramp,

@@ -16,6 +16,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from feedopt.errors import InputError, LawNotApplicable
+from feedopt.schedule.joints import interval_peaks
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.quintic import (
     QuinticPieces,
@@ -149,11 +150,13 @@ def _check_robot_can_cruise(problem: ScheduleProblem, v: float) -> None:
 
     The baseline ignores the deflection bound by design, not the robot: at constant feed the
     joint rates are |dq/ds| v and |d2q/ds2| v^2 (no tangential acceleration), which must stay
-    within the joint velocity and acceleration limits. Checked on the samples, before any
-    trajectory is built.
+    within the joint velocity and acceleration limits. Checked with their bounds around each
+    sample (:meth:`~feedopt.schedule.joints.IntervalPeaks.at_samples`: between the samples
+    too), before any trajectory is built.
     """
-    qd = np.abs(problem.dq_ds) * v / problem.joint_velocity_max
-    qdd = np.abs(problem.d2q_ds2) * v * v / problem.joint_acceleration_max
+    dq, d2q = interval_peaks(problem).at_samples(problem)
+    qd = dq * v / problem.joint_velocity_max
+    qdd = d2q * v * v / problem.joint_acceleration_max
     for what, ratio, limit, unit, power in (
         ("velocity", qd, problem.joint_velocity_max, "deg/s", 1),
         ("acceleration", qdd, problem.joint_acceleration_max, "deg/s^2", 2),

@@ -13,7 +13,15 @@ constraints, all linear in (a, b), are
   neighbouring intervals) and, inside each interval, the middle Bernstein coefficient
   b_k + a_k ds_k <= interval bound: a quadratic lies below the largest of its Bernstein
   coefficients, so the model b(s) stays under the bound on the fine samples too;
-* |a_k| <= accel_max, joint accelerations |q' a_k + q'' b_k| <= limit at the gridpoints;
+* |a_k| <= accel_max, and the joint accelerations |q'(s) sddot + q''(s) sdot^2| <= limit
+  on every cell (a grid interval cut at the samples) where they can bind, not only at the
+  gridpoints: on a cell they are a quartic in s whose Bernstein coefficients are linear in
+  (a_k, a_k+1, b_k), and bounding those bounds the whole cell
+  (:func:`feedopt.schedule.joint_rows.node_model_rows`). A corner shorter than a sample makes
+  q'' spike at one sample; where the grid is coarser than the samples, both ends of every
+  sample interval where a joint can bind are added to it (:func:`joint_refinement`), so the
+  feed dips at the corner alone. The joint velocity limits enter the feed bound with |q'| over
+  the sample intervals (:func:`feedopt.schedule.topp.sample_feed_bound`);
 * jerk: sdddot = (da/ds) sdot and sdot <= w_k on interval k, so
   |a_{k+1} - a_k| <= jerk_max ds_k / w_k is a convex, conservative jerk limit (no sequential
   convexification). w_k is the interval's feed bound, and near a rest end the feed a
@@ -25,8 +33,9 @@ cones: c_k^2 <= b_k and d_k (c_k + c_{k+1}) >= 1, objective sum 2 ds_k d_k.
 
 The output s(t) is a quintic Hermite piece in t per grid interval through (s, sdot, sddot) at
 the gridpoints (C2), with a piece duration that is exact for constant-jerk motion. It is
-verified on the fine samples; if the smoothing overshoots the feed, jerk or acceleration
-limit (or reverses), those limits are shrunk by the measured margin and the SOCP is solved
+verified on the fine samples (joint rates between them too); if the smoothing overshoots the
+feed, jerk, acceleration or a joint acceleration limit (or reverses), those limits are shrunk
+by the measured margin and the SOCP is solved
 again: every attempt is a typed :class:`ConvexAttempt` whose :class:`Overshoot` flags decide
 the re-solve (``stats.attempts``, ``stats.resolves`` and ``notes``). The solver grid is the
 samples, or, on long paths, an adaptive subset (dense where v_max varies, coarse where it is
@@ -54,9 +63,11 @@ from feedopt.schedule.checks import (
     check_positive_bound,
     check_timing,
 )
+from feedopt.schedule.joint_rows import JointRows, NodeGrid, node_model_rows
+from feedopt.schedule.joints import IntervalPeaks, interval_peaks
 from feedopt.schedule.polynomial import derivative_coefficients, horner, quintic_hermite_spline
 from feedopt.schedule.problem import ScheduleProblem
-from feedopt.schedule.topp import SampledJointPath, plan_topp, sample_feed_bound
+from feedopt.schedule.topp import plan_topp, sample_feed_bound
 from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
 from feedopt.units import MM, MM_PER_M
 
@@ -65,6 +76,10 @@ _FEED_SHRINK_SAFETY = 1.0 - 1e-6
 _LIMIT_SHRINK_SAFETY = 0.999
 # Relative overshoot of the final attempt reported as a VIOLATION.
 _VIOLATION_RTOL = 1e-9
+# Joint accelerations of the smoothed s(t) above their limit by more than this (relative)
+# re-solve (and, on the last attempt, are a VIOLATION): the SOCP meets its rows to the
+# solver's tolerance only; the verifier allows 1e-6.
+_JOINT_RTOL = 1e-7
 
 
 class ConvexOptions(BaseModel):
@@ -133,14 +148,18 @@ class Overshoot(enum.Flag):
     JERK = enum.auto()  #: exact max |sdddot| > jerk_max
     ACCELERATION = enum.auto()  #: max |sddot| > accel_max
     REVERSAL = enum.auto()  #: sdot < 0 somewhere (check_timing's Violation.REVERSAL)
+    #: a joint acceleration > its limit between gridpoints (the dense replay of check_timing)
+    JOINT_ACCELERATION = enum.auto()
 
 
 class _Scales(NamedTuple):
-    """Factors on the feed bound, jerk limit and acceleration limit of one solve."""
+    """Factors on the feed bound, jerk limit, acceleration limit and joint acceleration
+    limits of one solve."""
 
     feed: float
     jerk: float
     accel: float
+    joint: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -154,6 +173,10 @@ class ConvexAttempt(LawStats):
     feed_scale: float
     jerk_scale: float
     accel_scale: float
+    #: the factor on the joint acceleration limits when not 1 (None: 1)
+    joint_scale: float | None = None
+    #: largest joint acceleration / limit of the smoothed s(t) (dense replay)
+    joint_ratio: float = outcome(float("nan"))
     #: what this attempt overshot (empty: accepted)
     overshoot: Overshoot = outcome(Overshoot.NONE)
 
@@ -177,6 +200,8 @@ class ConvexStats(LawStats):
     topp_time_s: float | None = None
     topp_duration_s: float | None = None
     gap_to_topp: float | None = None
+    #: samples added to the grid where a joint acceleration can bind (None: none)
+    joint_refined_gridpoints: int | None = None
     #: limits the returned trajectory still violates after the last attempt
     violations: Overshoot = outcome(Overshoot.NONE)
 
@@ -239,12 +264,16 @@ def adaptive_grid(
         pts.append(graded)
     if problem.v_end == 0:
         pts.append(s[-1] - graded)
-    grid = np.unique(np.clip(np.concatenate(pts), 0.0, s[-1]))
-    # drop points closer than 1e-9 of the length to a neighbour (keep the end points)
-    keep = np.concatenate([[True], np.diff(grid) > 1e-9 * s[-1]])
+    return _without_near_twins(np.unique(np.clip(np.concatenate(pts), 0.0, s[-1])), s[-1])
+
+
+def _without_near_twins(grid: np.ndarray, length: float) -> np.ndarray:
+    """``grid`` (sorted) without points closer than 1e-9 of the length to a neighbour (the
+    end points kept)."""
+    keep = np.concatenate([[True], np.diff(grid) > 1e-9 * length])
     keep[-1] = True
     grid = grid[keep]
-    if grid.size > 2 and grid[-1] - grid[-2] <= 1e-9 * s[-1]:
+    if grid.size > 2 and grid[-1] - grid[-2] <= 1e-9 * length:
         grid = np.delete(grid, -2)
     return grid
 
@@ -306,9 +335,7 @@ def _solve_socp(
     s_mm: np.ndarray,
     b_node: np.ndarray,
     b_int: np.ndarray,
-    q1: np.ndarray,
-    q2: np.ndarray,
-    qdd_max: np.ndarray,
+    joint_rows: JointRows,
     a_max: float,
     j_max: float,
     b_start: float,
@@ -354,16 +381,16 @@ def _solve_socp(
     if np.isfinite(j_max):
         da = j_max * ds / w
         cons += [a[1:] - a[:-1] <= da, a[:-1] - a[1:] <= da]
-    a_cap = a_max if np.isfinite(a_max) else np.inf
-    for j in range(q1.shape[1]):
-        # drop gridpoints where |q' a + q'' b| cannot reach the limit (most of them)
-        reach = np.abs(q1[:, j]) * a_cap + np.abs(q2[:, j]) * b_node
-        k = np.flatnonzero(~(reach < qdd_max[j]))
-        if k.size:
-            qdd = cp.multiply(q1[k, j], a[k]) + cp.multiply(q2[k, j], b[k])
-            cons += [qdd <= qdd_max[j], qdd >= -qdd_max[j]]
+    if len(joint_rows):  # joint accelerations over every cell where they can bind
+        r = joint_rows
+        qdd = (cp.multiply(r.ca, a[r.ia]) + cp.multiply(r.ca1, a[r.ia1])
+               + cp.multiply(r.cb, b[r.ib]))
+        cons += [qdd <= 1.0, qdd >= -1.0]
     prob = cp.Problem(cp.Minimize(2 * ds @ d), cons)
-    opts = {"solver": cp.CLARABEL}
+    # Clarabel's "insufficient progress" near the optimum (seen at duality gaps ~1e-4 with
+    # the joint rows of rapids and cuts together) returns its iterate as optimal_inaccurate
+    # instead of raising: the smoothed trajectory is checked against every limit anyway
+    opts = {"solver": cp.CLARABEL, "accept_unknown": True}
     opts.update(solver_options)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # "inaccurate": reported via status
@@ -423,34 +450,58 @@ class _Grid:
     s: np.ndarray  # gridpoints [m]
     v_int: np.ndarray  # feed bound per grid interval [m/s]
     v_node: np.ndarray  # feed bound per gridpoint [m/s]
-    q1: np.ndarray  # dq/ds at the gridpoints [rad/mm]
-    q2: np.ndarray  # d2q/ds2 at the gridpoints [rad/mm^2]
     w_bound: np.ndarray  # feed w_k of each interval in the jerk constraint [m/s]
+    peaks: IntervalPeaks  # bounds of |q'|, |q''| on every sample interval
+    refined: int = 0  # gridpoints added where a joint acceleration can bind
 
 
-def _check_inputs(problem: ScheduleProblem) -> np.ndarray:
+def _check_inputs(problem: ScheduleProblem, peaks: IntervalPeaks) -> np.ndarray:
     """Refuse what the SOCP cannot solve; returns the per-sample feed bound [m/s]."""
     if not np.isfinite(problem.jerk_max) or problem.jerk_max <= 0:
         raise InputError(
             f"jerk_max = {problem.jerk_max} m/s^3: the convex law needs a finite positive jerk "
             "limit (use the topp law for an unlimited jerk)"
         )
-    v_sample = sample_feed_bound(problem)
+    v_sample = sample_feed_bound(problem, peaks)
     check_positive_bound("convex", problem, v_sample)
     check_boundary_feeds("convex", problem, v_sample[0], v_sample[-1])
     return v_sample
 
 
-def _grid(problem: ScheduleProblem, v_sample: np.ndarray, options: ConvexOptions) -> _Grid:
-    """Adaptive solver grid, its feed bounds, joint path derivatives and jerk feeds."""
+def joint_refinement(problem: ScheduleProblem, v_sample: np.ndarray, peaks: IntervalPeaks,
+                     s_grid: np.ndarray, budget: int) -> np.ndarray:
+    """The samples to add to ``s_grid`` [m]: both ends of every sample interval on which a
+    joint acceleration can reach its limit (max|q'| accel_max + max|q''| v^2 >= limit, v the
+    smaller bound of its ends), where a corner shorter than a sample makes q'' spike; the
+    ``budget`` intervals nearest to binding first. There the grid interval is the sample
+    interval, so the feed can dip at the corner alone, not along a whole coarse interval."""
+    v_pair = np.minimum(v_sample[:-1], v_sample[1:])
+    # without a tangential acceleration limit every interval can bind through q' sddot: the
+    # velocity term alone then says where the corners are
+    a_cap = float(problem.accel_max) if np.isfinite(problem.accel_max) else 0.0
+    limit = np.asarray(problem.joint_acceleration_max, dtype=float)
+    ratio = np.max((peaks.dq_ds * a_cap + peaks.d2q_ds2 * v_pair[:, None] ** 2) / limit, axis=1)
+    s = problem.s
+    on_grid = np.isin(s, s_grid)
+    todo = np.flatnonzero((ratio >= 1.0) & ~(on_grid[:-1] & on_grid[1:]))
+    todo = todo[np.argsort(-ratio[todo], kind="stable")[:budget]]
+    return np.unique(np.concatenate([s[todo], s[todo + 1]]))
+
+
+def _grid(problem: ScheduleProblem, v_sample: np.ndarray, peaks: IntervalPeaks,
+          options: ConvexOptions) -> _Grid:
+    """Adaptive solver grid refined where joint accelerations can bind, its feed bounds and
+    jerk feeds."""
     s_grid = adaptive_grid(problem, v_sample, options.max_gridpoints, options.rest_gridpoints)
+    extra = joint_refinement(problem, v_sample, peaks, s_grid, options.max_gridpoints)
+    if extra.size:
+        s_grid = _without_near_twins(np.union1d(s_grid, extra), problem.length)
     v_int, v_node = grid_bounds_at(problem.s, v_sample, s_grid)
-    path = SampledJointPath(problem)
     # feed bound w_k of each interval in the jerk constraint: v_max, and near a rest end the
     # jerk-limited reach (v_max alone would make the start from rest very slow)
     w_bound = np.minimum(v_int, (1 + options.reach_margin) * _rest_reach_feed(problem, s_grid))
-    return _Grid(s=s_grid, v_int=v_int, v_node=v_node, q1=path(s_grid, 1) / MM_PER_M,
-                 q2=path(s_grid, 2) / MM_PER_M**2, w_bound=w_bound)
+    return _Grid(s=s_grid, v_int=v_int, v_node=v_node, w_bound=w_bound, peaks=peaks,
+                 refined=int(extra.size))
 
 
 def _attempt(problem: ScheduleProblem, grid: _Grid, scales: _Scales, options: ConvexOptions):
@@ -464,11 +515,14 @@ def _attempt(problem: ScheduleProblem, grid: _Grid, scales: _Scales, options: Co
     b_int = (grid.v_int * scales.feed * MM_PER_M) ** 2
     b_start = min((problem.v_start * MM_PER_M) ** 2, b_node[0])
     b_end = min((problem.v_end * MM_PER_M) ** 2, b_node[-1])
+    rows = node_model_rows(problem, NodeGrid(
+        s=grid.s * MM_PER_M, b_int=b_int, a_cap=a_lim * scales.accel * MM_PER_M,
+        qdd_max=np.asarray(problem.joint_acceleration_max, dtype=float) * scales.joint,
+        rest_start=b_start == 0, rest_end=b_end == 0, scale=MM_PER_M), grid.peaks)
     b, a, status, solve_time, total = _solve_socp(
-        grid.s * MM_PER_M, b_node, b_int, grid.q1, grid.q2,
-        np.asarray(problem.joint_acceleration_max, dtype=float),
-        a_lim * scales.accel * MM_PER_M, j_lim * scales.jerk * MM_PER_M,
-        b_start, b_end, grid.w_bound * scales.feed * MM_PER_M, options.solver_options,
+        grid.s * MM_PER_M, b_node, b_int, rows, a_lim * scales.accel * MM_PER_M,
+        j_lim * scales.jerk * MM_PER_M, b_start, b_end, grid.w_bound * scales.feed * MM_PER_M,
+        options.solver_options,
     )
     if b is None or not status.solved:
         raise InputError(
@@ -492,19 +546,23 @@ def _attempt(problem: ScheduleProblem, grid: _Grid, scales: _Scales, options: Co
         overshoot |= Overshoot.ACCELERATION
     if Violation.REVERSAL in chk.violations:
         overshoot |= Overshoot.REVERSAL
+    if chk.joint_acceleration_ratio > 1.0 + _JOINT_RTOL:
+        overshoot |= Overshoot.JOINT_ACCELERATION
     attempt = ConvexAttempt(
         feed_ratio=chk.feed_ratio, max_accel=chk.max_accel, max_jerk=jerk, status=status,
         feed_scale=scales.feed, jerk_scale=scales.jerk, accel_scale=scales.accel,
-        overshoot=overshoot,
+        joint_scale=None if scales.joint == 1.0 else scales.joint,
+        joint_ratio=chk.joint_acceleration_ratio, overshoot=overshoot,
     )
     return timing, attempt, solve_time, total
 
 
 def _shrunk(scales: _Scales, attempt: ConvexAttempt, problem: ScheduleProblem,
             options: ConvexOptions) -> _Scales:
-    """The scales of the next solve: each overshot limit shrunk by the measured overshoot
-    (plus a little); a reversal shrinks the jerk limit by ``reversal_jerk_scale``."""
-    feed, jerk, accel = scales
+    """The scales of the next solve: each overshot limit (joint accelerations included)
+    shrunk by the measured overshoot (plus a little); a reversal shrinks the jerk limit by
+    ``reversal_jerk_scale``."""
+    feed, jerk, accel, joint = scales
     over = attempt.overshoot
     if Overshoot.FEED in over:
         feed *= _FEED_SHRINK_SAFETY / attempt.feed_ratio
@@ -514,7 +572,9 @@ def _shrunk(scales: _Scales, attempt: ConvexAttempt, problem: ScheduleProblem,
         accel *= _LIMIT_SHRINK_SAFETY * float(problem.accel_max) / attempt.max_accel
     if Overshoot.REVERSAL in over:
         jerk *= options.reversal_jerk_scale
-    return _Scales(feed, jerk, accel)
+    if Overshoot.JOINT_ACCELERATION in over:
+        joint *= _LIMIT_SHRINK_SAFETY / attempt.joint_ratio
+    return _Scales(feed, jerk, accel, joint)
 
 
 def _solve_until_within_limits(problem: ScheduleProblem, grid: _Grid, options: ConvexOptions):
@@ -542,6 +602,8 @@ def _violations(last: ConvexAttempt, problem: ScheduleProblem) -> Overshoot:
         out |= Overshoot.JERK
     if last.max_accel > float(problem.accel_max) * (1 + _VIOLATION_RTOL):
         out |= Overshoot.ACCELERATION
+    if last.joint_ratio > 1 + _JOINT_RTOL:
+        out |= Overshoot.JOINT_ACCELERATION
     return out | (last.overshoot & Overshoot.REVERSAL)
 
 
@@ -560,6 +622,8 @@ def _notes(gridpoints: int, attempts: tuple[ConvexAttempt, ...], violations: Ove
             f"the quintic smoothing overshot a limit; re-solved {resolves} time(s) with the feed "
             f"bound x{last.feed_scale:.6f}, jerk limit x{last.jerk_scale:.4f}, "
             f"acceleration limit x{last.accel_scale:.4f}"
+            + ("" if last.joint_scale is None else
+               f", joint acceleration limits x{last.joint_scale:.4f}")
         )
     if Overshoot.FEED in violations:
         notes.append(
@@ -575,6 +639,9 @@ def _notes(gridpoints: int, attempts: tuple[ConvexAttempt, ...], violations: Ove
         )
     if Overshoot.REVERSAL in violations:
         notes.append("VIOLATION: the smoothed feed becomes negative (the tool would reverse)")
+    if Overshoot.JOINT_ACCELERATION in violations:
+        notes.append(f"VIOLATION: a joint acceleration reaches {last.joint_ratio:.6f} of its "
+                     "limit")
     return notes
 
 
@@ -606,8 +673,9 @@ def plan_convex(
     """
     options = ConvexOptions() if options is None else options
     t_start = time.perf_counter()
-    v_sample = _check_inputs(problem)
-    grid = _grid(problem, v_sample, options)
+    peaks = interval_peaks(problem)
+    v_sample = _check_inputs(problem, peaks)
+    grid = _grid(problem, v_sample, peaks, options)
     timing, attempts, solve_total, socp_total = _solve_until_within_limits(
         problem, grid, options)
     last = attempts[-1]
@@ -636,6 +704,7 @@ def plan_convex(
         topp_time_s=topp_time,
         topp_duration_s=None if topp is None else topp.duration,
         gap_to_topp=None if topp is None else duration / topp.duration - 1.0,
+        joint_refined_gridpoints=grid.refined or None,
         violations=violations,
     )
     return Trajectory(law="convex", timing=timing, continuity=2, notes=tuple(notes), stats=stats)

@@ -21,9 +21,12 @@ Joint accelerations q'' = q_ss sdot^2 + q_s sddot are kept within their limits b
 each joint's budget: a share ``joint_acceleration_split`` goes to the velocity term (the bound
 used for the sections is lowered to sqrt(share qdd_max / |q_ss|) per sample) and the rest to
 the path acceleration (each section's ruckig acceleration limit is at most (1 - share)
-qdd_max / max|q_s| over the section). With both, |q''| <= qdd_max holds at every sample, a
-sufficient condition (thesis paths at cutting feeds never reach it; rapids round tight air
-corners do).
+qdd_max / max|q_s| over the section). |q_ss| and |q_s| are their bounds over the sample
+intervals (:func:`feedopt.schedule.joints.interval_peaks`), not their values at the samples,
+so |q''| <= qdd_max holds everywhere between the samples too, a sufficient condition (thesis
+paths at cutting feeds never reach it; rapids round tight air corners and corners shorter
+than a sample do). The joint velocity limits lower the bound the same way (|q_s| sdot), so
+they too hold between the samples.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from feedopt.errors import InputError
 from feedopt.schedule.checks import check_boundary_feeds, check_positive_bound
+from feedopt.schedule.joints import IntervalPeaks, interval_peaks
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.quintic import fit_length, ppoly_from_jerk_phases
 from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
@@ -147,20 +151,25 @@ def _section_caps(v: np.ndarray, tolerance: float, margin: float):
     return b, low, low * (1.0 - margin)
 
 
-def joint_acceleration_caps(problem: ScheduleProblem, share: float) -> np.ndarray:
-    """Per sample, the feed [m/s] at which the velocity term |q_ss| sdot^2 uses ``share`` of
-    every joint's acceleration limit (``inf`` where the joint path is straight)."""
+def joint_caps(problem: ScheduleProblem, share: float, peaks: IntervalPeaks) -> np.ndarray:
+    """Per sample, the feed [m/s] at which a joint reaches its velocity limit or the velocity
+    term |q_ss| sdot^2 uses ``share`` of its acceleration limit (``inf`` where the joint path
+    is straight), with |q_s| and |q_ss| as a per-sample bound must take them
+    (:meth:`IntervalPeaks.at_samples` of ``peaks``): a feed under the caps of an interval's
+    ends keeps both within on all of it."""
+    dq, d2q = peaks.at_samples(problem)
+    qd = np.asarray(problem.joint_velocity_max, dtype=float)
     qdd = share * np.asarray(problem.joint_acceleration_max, dtype=float)
     with np.errstate(divide="ignore"):
-        return np.sqrt(np.min(qdd / np.abs(problem.d2q_ds2), axis=1))
+        return np.minimum(np.min(qd / dq, axis=1), np.sqrt(np.min(qdd / d2q, axis=1)))
 
 
 def section_accelerations(problem: ScheduleProblem, b: np.ndarray, A: float,
-                          share: float) -> np.ndarray:
+                          share: float, peaks: IntervalPeaks) -> np.ndarray:
     """Per section, the path acceleration limit: ``A``, or less where (1 - share) of a joint's
-    acceleration limit over the largest |q_s| in the section is smaller."""
-    qs = np.abs(problem.dq_ds)
-    peak = np.maximum(np.maximum.reduceat(qs, b[:-1], axis=0), qs[b[1:]])
+    acceleration limit over the largest |q_s| in the section (between its samples too:
+    ``peaks``) is smaller."""
+    peak = np.maximum.reduceat(peaks.dq_ds, b[:-1], axis=0)
     qdd = (1.0 - share) * np.asarray(problem.joint_acceleration_max, dtype=float)
     with np.errstate(divide="ignore"):
         return np.minimum(A, np.min(qdd / peak, axis=1))
@@ -263,13 +272,14 @@ def plan_jerk(problem: ScheduleProblem, options: JerkOptions | None = None) -> T
     A, J = _check_inputs(problem)
     s = problem.s
     share = options.joint_acceleration_split
-    v = np.minimum(problem.v_max, joint_acceleration_caps(problem, share))
+    peaks = interval_peaks(problem)
+    v = np.minimum(problem.v_max, joint_caps(problem, share, peaks))
     t_start = time.perf_counter()
 
     b, low, cap = _section_caps(v, options.tolerance, options.margin)
     check_boundary_feeds("jerk", problem, low[0], low[-1])
     L = np.diff(s[b])
-    accel = section_accelerations(problem, b, A, share)
+    accel = section_accelerations(problem, b, A, share, peaks)
     vl = _junction_feeds(problem, cap, L, accel, J, options.margin)
     t_passes = time.perf_counter()
     durations, jerks = _ruckig_phases(s[b[:-1]], s[b[1:]], vl, cap, accel, J)

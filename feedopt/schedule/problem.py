@@ -8,8 +8,11 @@ laws never reach into other stages.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+
+from feedopt.schedule.joints import JointScreen, joint_screen
 
 
 @dataclass(frozen=True)
@@ -93,6 +96,13 @@ class ScheduleProblem:
     key_point_spacing: float = 0.0
     programmed_feed: np.ndarray | None = None
     stops: StopSamples | None = None
+
+    @cached_property
+    def joint_screen(self) -> JointScreen:
+        """Bounds of the joint rates on every sample interval per unit of feed and path
+        acceleration (:class:`feedopt.schedule.joints.JointScreen`), computed once: where the
+        dense replay of the joints must look."""
+        return joint_screen(self)
 
     @property
     def length(self) -> float:

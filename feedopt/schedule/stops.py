@@ -32,6 +32,7 @@ from scipy.interpolate import PPoly
 
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.schedule.checks import Ramp, find_ramps
+from feedopt.schedule.joints import one_sided_end
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
 from feedopt.units import MM
@@ -141,29 +142,6 @@ def _check_stops(problem: ScheduleProblem) -> tuple[np.ndarray, np.ndarray]:
                 f"({stops.kind[hit[0]]}) but {name} = {v / MM:.6g} mm/s; set {name} to 0 or "
                 "remove the stop")
     return idx.astype(np.int64), hold
-
-
-def one_sided_end(values: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """The last row of ``values`` (m, ...) re-estimated from the rows before it alone.
-
-    Quadratic extrapolation (Lagrange) in ``s`` from the three samples before the last one;
-    linear from two, constant from one on shorter pieces. At a stop the arrays hold the
-    following segment's values; the piece that arrives there needs its own side's (the path
-    may have a corner at the stop).
-    """
-    m = s.size
-    if m < 2:
-        return values[-1]
-    pts = np.arange(max(m - 4, 0), m - 1)  # up to three samples before the last
-    x = s[-1]
-    out = np.zeros_like(values[-1], dtype=float)
-    for j in pts:
-        w = 1.0
-        for i in pts:
-            if i != j:
-                w *= (x - s[i]) / (s[j] - s[i])
-        out += w * values[j]
-    return out
 
 
 def _piece_segments(problem: ScheduleProblem, s_a: float, s_b: float):

@@ -2,9 +2,15 @@
 
 The path q(s) is a quintic Hermite spline through the problem's samples (it reproduces
 ``q``, ``dq_ds`` and ``d2q_ds2`` exactly at every sample). toppra runs on explicit
-gridpoints (a subset of the samples) with the Interpolation discretisation of the joint
-acceleration limits; the feed bound v_max and the joint velocity limits enter as a bound on
-x = sdot^2 at each gridpoint and the tangential acceleration limit as a bound on u = sddot.
+gridpoints (a subset of the samples); the feed bound v_max and the joint velocity limits
+(with |q'| over the intervals next to each sample) enter as a bound on x = sdot^2 at each
+gridpoint and the tangential acceleration limit as a bound on u = sddot. The joint
+accelerations u q'(s) + x(s) q''(s) are bounded on every sample interval, not only at the
+gridpoints: with u constant and x linear on a grid interval they are u A(s) + x_k B(s) with
+cubics A, B, and the Bernstein coefficients of A and B give one linear row each in (u, x_k)
+(:func:`~feedopt.schedule.joint_rows.constant_accel_rows`, imposed by collocation). Where a
+corner transition is shorter than a sample, q'' spikes inside an interval and the
+Interpolation discretisation at the gridpoints alone let toppra exceed the limit there.
 
 Between gridpoints toppra's solution has constant sddot, so sdot^2 is linear in s and lies
 below the larger of its end values. Each gridpoint therefore gets the *minimum* of the
@@ -20,8 +26,8 @@ grid is: the largest x with x_k <= bound_k and |x_(k+1) - x_k| <= 2 a_max ds_k, 
 solution is the pointwise minimum that one backward and one forward pass compute exactly
 (:func:`limit_acceleration`; what toppra's reachability analysis converges to, up to its
 solver tolerance). So the law first computes that profile and checks the joint
-accelerations on it as toppra imposes them (Interpolation discretisation, every gridpoint
-interval at both ends); when they hold, the profile is also the optimum of toppra's problem
+accelerations on it as toppra imposes them (every sample interval, the same Bernstein
+rows); when they hold, the profile is also the optimum of toppra's problem
 and is the answer (about 1 ms at 1e5 samples against 2-4 s for toppra, same cycle time to
 5e-10: toppra's tolerance), otherwise toppra solves it. :class:`ToppMethod` says which.
 
@@ -48,6 +54,8 @@ from scipy.interpolate import PPoly
 
 from feedopt.errors import InputError
 from feedopt.schedule.checks import check_boundary_feeds, check_positive_bound
+from feedopt.schedule.joint_rows import constant_accel_ratio, constant_accel_rows
+from feedopt.schedule.joints import IntervalPeaks, interval_peaks
 from feedopt.schedule.polynomial import quintic_hermite_spline
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import LawStats, Trajectory, outcome
@@ -72,8 +80,8 @@ class ToppOptions(BaseModel):
         True, description="impose the tangential acceleration limit on |sddot| (ignored when "
         "it is infinite)")
     use_joint_limits: bool = Field(
-        True, description="impose the joint acceleration limits (Interpolation "
-        "discretisation on q(s)); joint velocity limits are always folded into the feed bound")
+        True, description="impose the joint acceleration limits (on every sample interval, "
+        "Bernstein rows); joint velocity limits are always folded into the feed bound")
 
 
 class ToppMethod(enum.Enum):
@@ -98,7 +106,8 @@ class ToppStats(LawStats):
     planning_time_s: float
     max_accel_jump_m_s2: float
     lower_bound_s: float
-    #: largest joint acceleration / limit on the samples (None: joint limits not imposed)
+    #: largest joint acceleration / limit on the sample intervals (an upper bound, exact at
+    #: the samples; None: joint limits not imposed)
     joint_acceleration_ratio: float | None = None
     #: toppra's ``ParameterizationReturnCode`` name (``"Ok"``; also without toppra)
     return_code: str = outcome("Ok")
@@ -107,8 +116,7 @@ class ToppStats(LawStats):
 
     @property
     def joint_acceleration_exceeded(self) -> bool:
-        """Joint accelerations go over their limit between gridpoints (toppra imposes them
-        at gridpoints only)."""
+        """Joint accelerations go over their limit (beyond toppra's tolerance)."""
         ratio = self.joint_acceleration_ratio
         return ratio is not None and ratio > 1 + _JOINT_ACCELERATION_RTOL
 
@@ -165,9 +173,15 @@ class SampledJointPath:
         return self(ss, 2)
 
 
-def sample_feed_bound(problem: ScheduleProblem) -> np.ndarray:
-    """Per-sample bound on sdot [m/s]: v_max and every joint velocity limit |q'(s)| sdot."""
-    dq = np.abs(np.asarray(problem.dq_ds, dtype=float))
+def sample_feed_bound(problem: ScheduleProblem, peaks: IntervalPeaks | None = None
+                      ) -> np.ndarray:
+    """Per-sample bound on sdot [m/s]: v_max and every joint velocity limit |q'(s)| sdot,
+    with |q'| its bound over the one or two sample intervals next to the sample
+    (:meth:`~feedopt.schedule.joints.IntervalPeaks.at_samples`; ``peaks``: those of the
+    problem, :func:`~feedopt.schedule.joints.interval_peaks`), so that the smaller bound of
+    an interval's ends keeps the joint velocities within their limits on all of it."""
+    peaks = interval_peaks(problem) if peaks is None else peaks
+    dq = peaks.at_samples(problem)[0]
     with np.errstate(divide="ignore"):
         v_joint = np.min(np.asarray(problem.joint_velocity_max)[None, :] / dq, axis=1)
     return np.minimum(np.asarray(problem.v_max, dtype=float), v_joint)
@@ -294,25 +308,43 @@ def _feed_bound_constraint(xbound: np.ndarray, ubound: np.ndarray | None):
     return _Bounds()
 
 
-def _constraints(problem: ScheduleProblem, v_node: np.ndarray, a_max: float,
-                 use_joint_limits: bool) -> list:
+def _constraints(problem: ScheduleProblem, grid: np.ndarray, v_node: np.ndarray,
+                 a_max: float, use_joint_limits: bool) -> list:
     """toppra constraints in mm: per-gridpoint bounds on x = sdot^2 and u = sddot, and the
-    joint accelerations (rows normalised to limit 1, see :class:`SampledJointPath`)."""
-    import toppra.constraint as constraint
-
+    joint accelerations on every sample interval (rows normalised to limit 1)."""
     xbound = np.column_stack([np.zeros(v_node.size), (v_node * MM_PER_M) ** 2])
     ubound = None
     if np.isfinite(a_max):
         ubound = np.tile([-a_max * MM_PER_M, a_max * MM_PER_M], (v_node.size, 1))
     constraints = [_feed_bound_constraint(xbound, ubound)]
     if use_joint_limits:
-        constraints.append(
-            constraint.JointAccelerationConstraint(
-                np.ones(problem.q.shape[1]),  # rows normalised by the limits (see the path)
-                discretization_scheme=constraint.DiscretizationType.Interpolation,
-            )
-        )
+        constraints.append(_joint_acceleration_constraint(*constant_accel_rows(
+            problem, grid, scale=MM_PER_M)))
     return constraints
+
+
+def _joint_acceleration_constraint(rows_a: np.ndarray, rows_b: np.ndarray):
+    """A toppra LinearConstraint ``-1 <= rows_a[k] u + rows_b[k] x <= 1`` at gridpoint k
+    (collocation: u is the grid interval's constant sddot, x = sdot^2 at its start): the
+    joint accelerations over the whole interval (:func:`constant_accel_rows`)."""
+    from toppra.constraint import DiscretizationType, LinearConstraint
+
+    m = rows_a.shape[1]
+    f = np.vstack([np.eye(m), -np.eye(m)])
+    g = np.ones(2 * m)
+
+    class _JointAcceleration(LinearConstraint):
+        def __init__(self):
+            super().__init__()
+            self.dof = 0
+            self.identical = True
+            self.discretization_type = DiscretizationType.Collocation
+            self._format_string = "    joint accelerations between the gridpoints (Bernstein)\n"
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            return rows_a, rows_b, np.zeros_like(rows_a), f, g, None, None
+
+    return _JointAcceleration()
 
 
 def _solve_toppra(problem: ScheduleProblem, s_grid: np.ndarray, constraints: list):
@@ -372,9 +404,11 @@ def plan_topp(problem: ScheduleProblem, options: ToppOptions | None = None) -> T
     a_max = float(problem.accel_max) if options.use_accel_limit else np.inf
     x = forward_backward_profile(s_grid, v_node, problem.v_start, problem.v_end, a_max)
     method, return_code, t_solve = ToppMethod.FORWARD_BACKWARD, "Ok", 0.0
-    if options.use_joint_limits and joint_acceleration_ratio_on_grid(problem, grid, x) > 1.0:
+    joint_ratio = _joint_ratio(problem, grid, x) if options.use_joint_limits else None
+    if joint_ratio is not None and joint_ratio > 1.0:
         method = ToppMethod.TOPPRA
         x, return_code, t_solve = _toppra_profile(problem, grid, v_node, a_max)
+        joint_ratio = _joint_ratio(problem, grid, x)
     timing, u = piecewise_quadratic_timing(s_grid, x)
 
     solver = ("toppra (TOPP-RA, seidel)" if method is ToppMethod.TOPPRA else
@@ -395,15 +429,14 @@ def plan_topp(problem: ScheduleProblem, options: ToppOptions | None = None) -> T
         planning_time_s=time.perf_counter() - t_start,
         max_accel_jump_m_s2=float(jumps.max(initial=0.0)),
         lower_bound_s=problem.lower_bound_time(),
-        joint_acceleration_ratio=(_joint_acceleration_ratio(problem, timing)
-                                  if options.use_joint_limits else None),
+        joint_acceleration_ratio=joint_ratio,
         return_code=return_code,
         method=method,
     )
     if stats.joint_acceleration_exceeded:
         notes.append(
             f"joint acceleration reaches {stats.joint_acceleration_ratio:.4f} of its limit "
-            "between gridpoints (toppra imposes it at gridpoints only)"
+            "(toppra's tolerance)"
         )
     return Trajectory(law="topp", timing=timing, continuity=1, notes=tuple(notes), stats=stats)
 
@@ -415,7 +448,7 @@ def _toppra_profile(
     its return code name and solve time [s]. The rounding-level excess of toppra's output
     over the gridpoint bound and the acceleration limit is clipped."""
     s_grid = problem.s[grid]
-    constraints = _constraints(problem, v_node, a_max, use_joint_limits=True)
+    constraints = _constraints(problem, grid, v_node, a_max, use_joint_limits=True)
     sd_mm, return_code, t_solve = _solve_toppra(problem, s_grid, constraints)
     x = (sd_mm / MM_PER_M) ** 2
     x = np.minimum(x, v_node**2)
@@ -423,13 +456,9 @@ def _toppra_profile(
     return limit_acceleration(x, s_grid, a_max), return_code, t_solve
 
 
-def _joint_acceleration_ratio(problem: ScheduleProblem, timing: PPoly) -> float:
-    """Largest |q'' sdot^2 + q' sddot| / limit over the samples (sddot of the piece that
-    starts at or before the sample)."""
-    s_break = timing(timing.x)
-    piece = np.clip(np.searchsorted(s_break, problem.s, side="right") - 1, 0, timing.x.size - 2)
-    u = 2 * timing.c[0, piece]
-    v2_left = timing.c[1, piece] ** 2
-    x = v2_left + 2 * u * (problem.s - s_break[piece])
-    qdd = problem.d2q_ds2 * x[:, None] + problem.dq_ds * u[:, None]
-    return float(np.max(np.abs(qdd) / np.asarray(problem.joint_acceleration_max)))
+def _joint_ratio(problem: ScheduleProblem, grid: np.ndarray, x: np.ndarray) -> float:
+    """Largest |q'' sdot^2 + q' sddot| / limit of the constant-sddot profile through
+    x = sdot^2 at the gridpoints, on every sample interval, not only at the gridpoints
+    (:func:`~feedopt.schedule.joint_rows.constant_accel_ratio`)."""
+    u = np.diff(x) / (2 * np.diff(problem.s[grid]))
+    return constant_accel_ratio(problem, grid, x, u)

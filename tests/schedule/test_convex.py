@@ -153,12 +153,17 @@ def test_overshoot_flags_decide_the_next_limits():
     over = _attempt(Overshoot.FEED | Overshoot.JERK | Overshoot.ACCELERATION,
                     feed_ratio=1.01, max_jerk=2 * problem.jerk_max,
                     max_accel=4 * problem.accel_max)
-    feed, jerk, accel = _shrunk(start, over, problem, opts)
+    feed, jerk, accel, joint = _shrunk(start, over, problem, opts)
     assert feed == pytest.approx((1 - 1e-6) / 1.01)
     assert jerk == pytest.approx(0.98 * 0.999 / 2)
     assert accel == pytest.approx(0.999 / 4)
+    assert joint == 1.0
     rev = _shrunk(start, _attempt(Overshoot.REVERSAL), problem, opts)
-    assert rev == (1.0, pytest.approx(0.98 * 0.9), 1.0)
+    assert rev == (1.0, pytest.approx(0.98 * 0.9), 1.0, 1.0)
+    # the smoothing between gridpoints overshot a joint acceleration by 2 %
+    joints = _shrunk(start, _attempt(Overshoot.JOINT_ACCELERATION, joint_ratio=1.02), problem,
+                     opts)
+    assert joints == (1.0, 0.98, 1.0, pytest.approx(0.999 / 1.02))
 
 
 def test_remaining_violations_are_typed_and_noted():
