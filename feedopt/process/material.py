@@ -4,12 +4,13 @@ When a scenario has ``stock:``, :func:`engagement_from_stock` builds the Z-map
 (:mod:`feedopt.process.stock`: a box, or a closed mesh), sweeps the scenario's end mill along
 the sampled path in order and hands the force model the engagement the material gives
 (entry/exit angles and axial depth per sample; air samples carry no force). On a G-code
-program it also refuses what a CNC would crash on: a rapid that meets material, and a plunge
-deeper than the flutes, naming the line. A plunge straight down (G1 along -Z) that meets
-material is a full plunge of the end edges (``Engagement.plunge = 1``,
-:mod:`feedopt.process.plunge`): "meets material" is the sweep's material in front of the
-cutter at that sample (the leading half of the footprint and the crescent beyond its rim
-along the last feed direction, above the tool tip), and its footprint is taken as full.
+program it also refuses what a CNC would crash on: a rapid whose swept volume meets material
+(the volume the cutter sweeps over the step, :attr:`StockEngagement.swept_depth`: a G0 straight
+up out of a bore is no crash, a G0 sideways or down through material is), and a plunge deeper
+than the flutes, naming the line. A plunge straight down (G1 along -Z) whose bottom cuts
+material (:attr:`StockEngagement.bottom_depth`) is a full plunge of the end edges
+(``Engagement.plunge = 1``, :mod:`feedopt.process.plunge`), its footprint taken as full.
+Rapids carry no engagement (their swept volume meets none, or the run is refused).
 
 A path that cuts no material at any sample is refused (the stock is elsewhere, or the mesh is
 in other units: the message gives both extents in mm) unless ``stock.air_cut`` says an air cut
@@ -31,6 +32,10 @@ from feedopt.process.plunge import check_plunge_depth
 from feedopt.process.stock import FlatEndMill, StockEngagement, ZMap, sweep
 from feedopt.process.tool import Tool
 from feedopt.units import MM
+
+# Material thinner than this in a swept volume is no contact (as the sweep's material
+# threshold, :data:`feedopt.process.stock_sweep.MIN_DEPTH`).
+_MIN_DEPTH = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,16 +143,17 @@ def _nothing_cut(section, before: ZMap, found: StockEngagement, positions: np.nd
 
 def _feed_tangents(tangents: np.ndarray) -> np.ndarray:
     """Tangents with a feed direction across the tool axis everywhere: a vertical sample
-    (a plunge or retract) takes the last horizontal direction before it (or the first after)."""
+    (a plunge or retract) takes the first horizontal direction after it, where the path goes
+    on (or the last before it at the end of the path)."""
     t = np.asarray(tangents, dtype=float).copy()
     flat = np.linalg.norm(t[:, :2], axis=1) > 1e-6
     if not flat.any():
         t[:, :2] = (1.0, 0.0)
         return t
-    idx = np.where(flat, np.arange(t.shape[0]), -1)
-    last = np.maximum.accumulate(idx)
-    first = np.flatnonzero(flat)[0]
-    src = np.where(last >= 0, last, first)
+    n = t.shape[0]
+    idx = np.where(flat, np.arange(n), n)
+    nxt = np.minimum.accumulate(idx[::-1])[::-1]
+    src = np.where(nxt < n, nxt, np.flatnonzero(flat)[-1])
     t[~flat, :2] = t[src[~flat], :2]
     return t
 
@@ -164,11 +170,12 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
     found = sweep(after, FlatEndMill.from_tool(tool), samples.position,
                   _feed_tangents(samples.tangent), depth_step=section.depth_step_mm * MM)
     vertical = np.linalg.norm(samples.tangent[:, :2], axis=1) <= 1e-6
-    plunge = None
+    plunge, air = None, vertical  # moves along the tool axis do not mill with the side edges
     if moves is not None:
-        plunge = _check_program_contacts(found, moves, samples, source, vertical, tool)
-    if vertical.any():  # moves along the tool axis do not mill with the side edges
-        found = _without(found, vertical)
+        plunge, rapid = _check_program_contacts(found, moves, samples, source, tool)
+        air = air | rapid  # their swept volume meets no material (else refused)
+    if air.any():
+        found = _without(found, air)
     if plunge is not None and plunge.any():  # ... but a plunge cuts with the end edges
         found = dataclasses.replace(found, engagement=found.engagement.with_plunge(plunge))
     warnings = _units_note(section, before)
@@ -189,23 +196,26 @@ def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:
 
 
 def _check_program_contacts(found: StockEngagement, moves, samples, source: str,
-                            vertical: np.ndarray, tool: Tool) -> np.ndarray:
-    """Rapids across the tool axis that meet material are refused, and plunges that meet it
-    deeper than the flute length below its top; returns the plunge column (1 where a plunge
-    meets material). A vertical rapid (a retract) is not checked: the sweep's material in
-    front of the cutter is ahead along the last feed direction, not where a vertical move
-    goes."""
+                            tool: Tool) -> tuple[np.ndarray, np.ndarray]:
+    """Rapids whose swept volume meets material are refused (a G0 straight up out of a bore
+    is not; a G0 sideways or down through material is; a step that starts on a feed move is
+    the feed move's), and plunges that meet it deeper than the flute length below its top.
+    Returns the plunge column (1 where a plunge's bottom cuts
+    material) and the mask of rapid samples (their swept volume meets none)."""
     move = moves.index_at(samples.s)
-    cat = moves.category[move].copy()
-    cat[(cat == "rapid") & vertical & (samples.tangent[:, 2] > 0)] = "retract"
-    hit = (cat == "rapid") & ~found.in_air
-    plunge = (cat == "plunge") & ~found.in_air
+    cat = moves.category[move]
+    rapid = cat == "rapid"
+    # the step into sample i is swept at sample i: a rapid's when it starts on one too (the
+    # first step of a G0 still ends the feed move before it)
+    hit = rapid & np.r_[True, rapid[:-1]] & (found.swept_depth > _MIN_DEPTH)
+    plunge = (cat == "plunge") & (found.bottom_depth > _MIN_DEPTH)
     deep = plunge & found.beyond_flutes
     if hit.any() and not (deep.any() and np.argmax(deep) < np.argmax(hit)):  # the first one
         i = int(np.argmax(hit))
         raise InputError(
             f"{source} {moves.label(int(move[i]))}: a rapid (G0) meets material: the cutter "
             "would crash into the stock; rapid above it or cut with G1 (at s = "
-            f"{samples.s[i] / MM:.3f} mm, {found.axial_depth[i] / MM:.3g} mm deep)")
+            f"{samples.s[i] / MM:.3f} mm, its swept volume cuts {found.swept_depth[i] / MM:.3g} "
+            "mm of material)")
     check_plunge_depth(deep, move, moves, tool, source)
-    return plunge.astype(float)
+    return plunge.astype(float), rapid

@@ -21,23 +21,37 @@ Cell size h (default 0.25 mm); heights are float32, so the Z-map takes 4 bytes p
 for the accuracy of the angles: about (h / sqrt 2) / (R sin phi) rad where the material
 boundary crosses the cutter rim (1.1 deg at phi = 90 deg for h = 0.25 mm, R = 9.525 mm).
 
-Removal (the swept-area choice)
--------------------------------
-Sample i removes the swept capsule from sample i-1 to sample i (every cell whose centre is
-within R of that segment in xy is lowered to the tool tip height interpolated along the
-segment, never below z0); sample 0 removes its disc. Using segments instead of discs leaves
-no scallops between samples and lets the path be curved and coarsely sampled. The volume
-each step removes is reported (:attr:`StockEngagement.removed`).
+Along the path (issue 28)
+-------------------------
+The material a tooth meets is the material the cutter's disc sweeps along the path ahead, in
+the tool frame of the path's own tangent, for lines, arcs, helices, ramps and rising moves
+alike (:mod:`feedopt.process.stock_sweep`: the path near a sample is its osculating arc, and a
+cell is given to the tooth that meets it there, at ``phi = arccos(y' / R)`` with y' from the
+triangle of the arc's centre, the cutter's centre and the cell; Kardes & Altintas 2007). The
+material under the disc the previous sample left is not met by the side edges: only the
+bottom cuts it, on a descending step (a ramp, a helix, a plunge; the layer down from the
+previous tip height, :attr:`StockEngagement.bottom_depth`); a level or rising step leaves it
+as it is.
+
+Removal (the swept volume)
+--------------------------
+Sample i removes the volume the cylinder sweeps from sample i-1 to sample i: every cell whose
+centre is within R of that segment in xy is lowered to the lowest height the flat bottom passes
+over it (the tip height at the last point of the step that covers it when the tip descends,
+the first when it rises), never below z0; sample 0 removes its disc. Using segments instead of
+discs leaves no scallops between samples and lets the path be curved and coarsely sampled.
+The volume each step removes and the thickest material it cuts are reported
+(:attr:`StockEngagement.removed`, :attr:`StockEngagement.swept_depth`): a rapid whose swept
+volume meets material is a crash (:mod:`feedopt.process.material`).
 
 Speed
 -----
-The cells in front of each sample and the cells its capsule cuts depend on the path only;
+The cells in front of each sample and the cells its step cuts depend on the path only;
 :func:`sweep` finds them for blocks of samples with numpy, and its Python loop over samples
-reads and lowers only those cells, leaving out the ones the previous sample has already cut
-to the same height, with the same results cell by cell as the per-sample window sweep it
-replaced. 1e5 samples of a pocket path at 0.1 mm steps take about 4 s on two cores (21 s
-before; ``benchmarks/bench_stock.py``); samples where the tip descends (ramps, helices) still
-use the window of cells, about 0.2 ms each.
+only reads and lowers those cells, leaving out, on a level or rising step, the disc the
+previous sample left (not cut again, and not material). 1e5 samples of a pocket path at
+0.1 mm steps take about 4-4.5 s on two cores (``benchmarks/bench_stock.py``; 3.6 s with the
+straight lookahead before issue 28).
 
 Stock from a mesh
 -----------------
@@ -65,6 +79,15 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.process.engagement import Engagement, EngagementPieces
+from feedopt.process.stock_mesh import closed_mesh_triangles, mesh_tops, unit_text
+from feedopt.process.stock_sweep import (
+    Grid,
+    LateralBins,
+    cut_along,
+    intervals,
+    make_setup,
+    sweep_geometry,
+)
 from feedopt.process.tool import Tool
 from feedopt.units import MM
 
@@ -87,70 +110,6 @@ DEFAULT_CELL = 0.25 * MM
 MAX_CELLS = 40_000_000
 #: The largest cell size a scenario allows (stock.cell_mm) [m].
 _MAX_CELL = 5.0 * MM
-# Material thinner than this above the tool tip is not material (float32 heights round to
-# ~4e-9 m at |z| = 0.05 m, far below it).
-_MIN_DEPTH = 1e-6
-
-
-# Vertical lines of ZMap.from_mesh are nudged by these fractions of a cell from the cell
-# centres, so that they miss the edges and vertices of meshes with round coordinates.
-_NUDGE = (0.7071067811865476e-6, 0.5773502691896258e-6)
-_CROSSING_BUDGET = 2_000_000
-
-
-def _vertical_crossings(
-    tri: np.ndarray, origin, cell: float, shape
-) -> tuple[np.ndarray, np.ndarray]:
-    """Where the vertical lines through the (nudged) cell centres cross the triangles.
-
-    ``tri``: (m, 3, 3) vertices [m]. Returns the flat cell index and the z of each crossing.
-    A line crosses a triangle when its point lies inside the triangle's xy projection
-    (edge functions of one sign, zero included); vertical triangles are skipped.
-    """
-    nx, ny = shape
-    ox = origin[0] + (0.5 + _NUDGE[0]) * cell  # x of cell 0's line
-    oy = origin[1] + (0.5 + _NUDGE[1]) * cell
-    x, y, zv = tri[:, :, 0], tri[:, :, 1], tri[:, :, 2]
-    area = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    keep = area != 0.0
-    x, y, zv, area = x[keep], y[keep], zv[keep], area[keep]
-    i_lo = np.clip(np.ceil((x.min(axis=1) - ox) / cell), 0, nx).astype(np.int64)
-    i_hi = np.clip(np.floor((x.max(axis=1) - ox) / cell), -1, nx - 1).astype(np.int64)
-    j_lo = np.clip(np.ceil((y.min(axis=1) - oy) / cell), 0, ny).astype(np.int64)
-    j_hi = np.clip(np.floor((y.max(axis=1) - oy) / cell), -1, ny - 1).astype(np.int64)
-    ni, nj = np.maximum(i_hi - i_lo + 1, 0), np.maximum(j_hi - j_lo + 1, 0)
-    count = ni * nj
-    out_c, out_z = [], []
-    cum = np.cumsum(count)
-    t0 = 0
-    while t0 < count.size:
-        base = cum[t0 - 1] if t0 else 0
-        t1 = max(t0 + 1, int(np.searchsorted(cum, base + _CROSSING_BUDGET, "right")))
-        t1 = min(t1, count.size)
-        local, t = _expand(np.zeros(t1 - t0, dtype=np.int64), count[t0:t1])
-        t += t0
-        i = i_lo[t] + local // nj[t]
-        j = j_lo[t] + local % nj[t]
-        px, py = ox + i * cell, oy + j * cell
-        s = np.sign(area[t])
-        e = []
-        for a, b in ((1, 2), (2, 0), (0, 1)):  # edge opposite vertex 0, 1, 2
-            e.append(
-                (x[t, b] - x[t, a]) * (py - y[t, a]) - (y[t, b] - y[t, a]) * (px - x[t, a])
-            )
-        inside = (e[0] * s >= 0) & (e[1] * s >= 0) & (e[2] * s >= 0)
-        zc = (e[0] * zv[t, 0] + e[1] * zv[t, 1] + e[2] * zv[t, 2]) / area[t]
-        out_c.append((i * ny + j)[inside])
-        out_z.append(zc[inside])
-        t0 = t1
-    if not out_c:
-        return np.zeros(0, dtype=np.int64), np.zeros(0)
-    return np.concatenate(out_c), np.concatenate(out_z)
-
-
-def _unit_text(scale: float) -> str:
-    """The unit a mesh scale [m per unit] reads a file in."""
-    return {MM: "mm", 1.0: "m"}.get(scale, f"units of {scale:g} m")
 
 
 def grid_shape(span_x: float, span_y: float, cell: float, where: str,
@@ -195,86 +154,6 @@ def _cell_that_fits(span_x: float, span_y: float, cell: float) -> float:
             return h
         k += 1
     return math.inf
-
-
-def _closed_mesh_triangles(file: Path, where: str) -> np.ndarray:
-    """The triangles (m, 3, 3) of the STL ``file`` [file units]; InputError unless they form
-    a closed surface (after merging equal vertices every edge belongs to exactly two)."""
-    from feedopt.process.stl import read_stl
-
-    if not file.is_file():
-        raise InputError(f"{where}: no such file")
-    if file.suffix.lower() != ".stl":
-        raise InputError(f"{where}: stock.mesh must be an STL file (binary or ASCII, .stl), "
-                         f"got {file.suffix or 'no suffix'}; export the stock as STL")
-    tri = read_stl(file, what=where)
-    flat = np.round(tri.reshape(-1, 3), 8) + 0.0  # + 0.0: -0.0 and 0.0 are one vertex
-    _, ids = np.unique(flat, axis=0, return_inverse=True)
-    ids = ids.reshape(-1, 3)
-    edges = np.sort(np.concatenate([ids[:, [0, 1]], ids[:, [1, 2]], ids[:, [2, 0]]]), axis=1)
-    _, first, count = np.unique(edges, axis=0, return_index=True, return_counts=True)
-    if np.all(count == 2):
-        return tri
-    k = int(first[np.argmax(count != 2)]) % ids.shape[0]
-    single = int(np.sum(count == 1))
-    raise InputError(
-        f"{where}: is not closed (not watertight: {single:,} edge(s) belong to one triangle "
-        f"only, {int(np.sum(count > 2)):,} to more than two; the first at triangle {k}, from 0, "
-        f"near {', '.join(f'{v:g}' for v in tri[k].mean(axis=0))}); a stock needs a closed solid")
-
-
-def _mesh_tops(tri: np.ndarray, lo: np.ndarray, tol: float, cell: float, shape,
-               where: str) -> np.ndarray:
-    """Top of the material per cell (flat, length nx * ny) [m] of the closed mesh ``tri``
-    [m] whose bounds start at ``lo``; InputError where a column is not one solid on z0."""
-    nx, ny = shape
-    cells, z = _vertical_crossings(tri, (lo[0], lo[1]), cell, (nx, ny))
-    if cells.size == 0:
-        raise InputError(
-            f"{where}: no cell centre lies inside the mesh: its x-y extent, "
-            f"{(tri[..., 0].max() - lo[0]) / MM:.4g} x {(tri[..., 1].max() - lo[1]) / MM:.4g} mm, "
-            f"is smaller than the {cell / MM:g} mm cells (check the units)")
-    # sort per cell, merge crossings within tol (a line through a shared edge)
-    order = np.lexsort((z, cells))
-    cells, z = cells[order], z[order]
-    dup = np.concatenate([[False], (cells[1:] == cells[:-1]) & (np.diff(z) <= tol)])
-    cells, z = cells[~dup], z[~dup]
-    count = np.bincount(cells, minlength=nx * ny)
-    first = np.cumsum(count) - count
-
-    def at(c: int) -> str:
-        i, j = divmod(int(c), ny)
-        x, y = lo[0] + (i + 0.5) * cell, lo[1] + (j + 0.5) * cell
-        return f"x = {x / MM:g} mm, y = {y / MM:g} mm"
-
-    odd = np.flatnonzero(count % 2 == 1)
-    if odd.size:
-        raise InputError(
-            f"{where}: the vertical line at {at(odd[0])} crosses its surface "
-            f"{count[odd[0]]} times (an odd number: the mesh is not a consistent solid there)"
-        )
-    many = np.flatnonzero(count > 2)
-    if many.size:
-        c = many[0]
-        zs = ", ".join(f"{v / MM:g}" for v in z[first[c] : first[c] + count[c]])
-        raise InputError(
-            f"{where}: the vertical line at {at(c)} passes through material, "
-            f"air and material again (surface at z = {zs} mm): an overhang, undercut or "
-            "cavity, which a Z-map (one column of material per cell) cannot represent"
-        )
-    solid = np.flatnonzero(count == 2)
-    bottoms, tops = z[first[solid]], z[first[solid] + 1]
-    floating = bottoms > lo[2] + tol
-    if np.any(floating):
-        k = int(np.argmax(floating))
-        raise InputError(
-            f"{where}: at {at(solid[k])} the material starts at z = "
-            f"{bottoms[k] / MM:g} mm, above the mesh's bottom z = {lo[2] / MM:g} mm: a Z-map's "
-            "columns all stand on one flat bottom"
-        )
-    heights = np.full(nx * ny, lo[2], dtype=np.float32)
-    heights[solid] = tops
-    return heights
 
 
 @dataclass(frozen=True)
@@ -409,8 +288,8 @@ class ZMap:
         if not (math.isfinite(scale) and scale > 0):
             raise InputError(f"stock mesh scale must be > 0, got {scale:g}")
         file = Path(path)
-        where = where or f"stock mesh {file} (read in {_unit_text(scale)})"
-        tri = _closed_mesh_triangles(file, where) * scale
+        where = where or f"stock mesh {file} (read in {unit_text(scale)})"
+        tri = closed_mesh_triangles(file, where) * scale
         lo, hi = tri.reshape(-1, 3).min(axis=0), tri.reshape(-1, 3).max(axis=0)
         if not np.all(np.isfinite(hi - lo)):
             raise InputError(f"{where}: its coordinates times {scale:g} m overflow")
@@ -418,7 +297,7 @@ class ZMap:
             raise InputError(f"{where}: is flat (no volume)")
         # STL coordinates are float32: a span of whole cells may come out 1e-4 cells longer
         nx, ny = grid_shape(hi[0] - lo[0], hi[1] - lo[1], cell, where, slack=1e-3)
-        heights = _mesh_tops(tri, lo, 1e-6 * float(np.max(hi - lo)), cell, (nx, ny), where)
+        heights = mesh_tops(tri, lo, 1e-6 * float(np.max(hi - lo)), cell, (nx, ny), where)
         return cls(heights.reshape(nx, ny), (float(lo[0]), float(lo[1])), cell, float(lo[2]))
 
     @property
@@ -480,6 +359,16 @@ class StockEngagement:
         Every engaged piece of every engaged sample (angles and the axial depth of each,
         see :func:`sweep`); ``engagement.pieces`` holds those of the samples with more than
         one piece (the others are their hull).
+    radius : float
+        Cutter radius R [m].
+    swept_depth : (n,) float
+        The thickest material [m] each step cuts (the largest height drop of a cell of its
+        swept volume); 0 where the cutter's swept volume meets no material.
+    bottom_depth : (n,) float
+        The thickest layer of material [m] the flat bottom cuts on a descending step: the
+        step's cut between the previous tip height and this one (the floor of a ramp or a
+        helix, a plunge's); 0 on level and rising steps (a rising bottom takes no material)
+        and at sample 0.
     """
 
     engagement: Engagement
@@ -490,6 +379,8 @@ class StockEngagement:
     removed: np.ndarray
     intervals: EngagementPieces
     radius: float
+    swept_depth: np.ndarray
+    bottom_depth: np.ndarray
 
     def interval_summary(self) -> tuple[np.ndarray, np.ndarray]:
         """Per sample the number of engaged intervals (runs of contiguous pieces: separate
@@ -587,87 +478,6 @@ def _feed_directions(tangents: np.ndarray, n: int) -> np.ndarray:
     return xy / norm[:, None]
 
 
-# Margin [m] of the candidate cell sets of :func:`sweep`: far above the float64 rounding of
-# the coordinates (~1e-16 m at 1 m), far below a cell.
-_EPS = 1e-9
-# Samples whose per-row intervals are computed at once, and candidate cells expanded at once
-# (bounds the temporaries to some 10 arrays of this many float64).
-_BLOCK = 512
-_CELL_BUDGET = 250_000
-
-
-def _expand(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The ranges ``[starts[k], starts[k] + counts[k])`` concatenated, and each element's k."""
-    owner = np.repeat(np.arange(counts.size), counts)
-    shift = np.repeat(starts - (np.cumsum(counts) - counts), counts)
-    return shift + np.arange(owner.size), owner
-
-
-def _row_span(cx, r, i0, i1, gx0: float, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Rows ``[a0, a1)`` of the window ``[i0, i1)`` whose cell centres are within r of cx."""
-    a0 = np.clip(np.ceil((cx - r - gx0) / h - 0.5), i0, i1).astype(np.int64)
-    a1 = np.clip(np.floor((cx + r - gx0) / h - 0.5) + 1, a0, i1).astype(np.int64)
-    return a0, a1
-
-
-def _block_pieces(disc_f, halfplane, disc_c, inner, window, active, grid):
-    """Candidate cells of a block of samples, as (sample, flat start, count), two a row.
-
-    Front candidates: the cells of the window in the disc ``disc_f`` = (cx, cy, r) and the
-    half-plane ``(x - cx) fx + (y - cy) fy >= -_EPS`` (``halfplane`` = (fx, fy)); capsule
-    candidates: the cells of the window in the disc ``disc_c``; both less the cells surely
-    inside the disc ``inner`` = (px, py, r). Arrays per sample (r may be a scalar);
-    ``window`` = (i0, i1, j0, j1); samples not ``active`` get none; ``grid`` = (gx0, gy0,
-    h, ny, x_centres). The sets only
-    need to hold the cells, so y is in cell units (cell j's centre at j) and the rounding
-    (~1e-12 cells) is far inside the 1 nm margin.
-    """
-    gx0, gy0, h, ny, xc_all = grid
-    i0, i1, j0, j1 = window
-    a0, a1 = _row_span(disc_f[0], disc_f[2], i0, i1, gx0, h)
-    c0, c1 = _row_span(disc_c[0], disc_c[2], i0, i1, gx0, h)
-    a0 = np.minimum(a0, c0)
-    a1 = np.where(active, np.maximum(a1, c1), a0)
-    a, k = _expand(a0, a1 - a0)
-    xa = xc_all[a]
-
-    def cells_of_disc(ox, oy, r):
-        """[lo, hi] in cell units per row (lo > hi where the row misses the disc)."""
-        d = xa - ox[k]
-        r = r[k] if np.ndim(r) else r
-        w2 = r * r - d * d
-        w = np.copysign(np.sqrt(np.abs(w2)), w2) / h
-        yc = ((oy - gy0) / h - 0.5)[k]
-        return d, yc - w, yc + w
-
-    # (clipped before the integer cast: a bound can be +-1e191 cells)
-    _, lo, hi = cells_of_disc(*inner)
-    in_hi = np.clip(np.floor(hi), -1, ny).astype(np.int64)
-    in_lo = np.clip(np.ceil(lo), -1, in_hi + 1).astype(np.int64)  # empty: in_hi + 1
-    j_min, j_max = j0[k], j1[k] - 1
-
-    def pieces(lo, hi):
-        j_lo = np.clip(np.ceil(lo), j_min, j_max + 1).astype(np.int64)
-        j_hi = np.clip(np.floor(hi), j_min - 1, j_max).astype(np.int64)
-        counts = np.empty(2 * a.size, dtype=np.int64)
-        starts = np.empty(2 * a.size, dtype=np.int64)
-        starts[0::2] = j_lo
-        counts[0::2] = np.minimum(j_hi, in_lo - 1) - j_lo + 1
-        starts[1::2] = np.maximum(j_lo, in_hi + 1)
-        counts[1::2] = j_hi - starts[1::2] + 1
-        starts += np.repeat(a * ny, 2)
-        return np.repeat(k, 2), starts, np.maximum(counts, 0)
-
-    d, lo, hi = cells_of_disc(*disc_f)
-    fx, fy = halfplane
-    fy = np.where(fy == 0.0, 1e-200, fy)  # fy = 0: +-1e191 cells, the same cut
-    bound = ((disc_f[1] - gy0) / h - 0.5)[k] - (_EPS + d * fx[k]) * (1.0 / (fy * h))[k]
-    up = (fy > 0)[k]
-    lo = np.where(up, np.maximum(lo, bound), lo)
-    hi = np.where(up, hi, np.minimum(hi, bound))
-    return [pieces(lo, hi), pieces(*cells_of_disc(*disc_c)[1:])]
-
-
 #: Default depth step [m] of the angle-dependent axial depth: material tops across the
 #: cutter that differ by less than this share one piece, at the largest depth among them (so
 #: the force is overestimated by less than this much depth, never underestimated). 0.1 mm
@@ -675,94 +485,6 @@ def _block_pieces(disc_f, halfplane, disc_c, inner, window, active, grid):
 #: cost grows with the pieces (scenario: stock.depth_step_mm).
 DEPTH_STEP = 0.1 * MM
 
-
-@dataclass(frozen=True)
-class _Bins:
-    """Lateral bins of width h across the cutter (force-model y in [-R, R]) for the pieces."""
-
-    radius: float
-    width: float
-    flute_length: float
-    snap: float
-    depth_step: float
-
-    @property
-    def count(self) -> int:
-        return max(1, math.ceil(2.0 * self.radius / self.width - 1e-9))
-
-    def pieces(self, k_local, dy, height, ng: int, floor, w_half):
-        """Pieces of ``ng`` samples from their material cells (sample ``k_local``, lateral
-        offset ``dy`` [m], top ``height`` [m]): per lateral bin the highest top and the
-        extreme offsets; runs of material bins (one empty bin between two material bins is
-        bridged: a grid of cells h apart may leave one empty) split where the depth, in
-        steps of :data:`DEPTH_STEP`, changes. A run's ends are widened and snapped to the rim
-        like the hull's (:func:`sweep`); depth-split pieces meet on bin edges.
-
-        Returns (local sample, y_lo, y_hi, depth) per piece, in sample then y order.
-        """
-        nb, r = self.count, self.radius
-        key = k_local * nb + np.clip(np.floor((dy + r) / self.width), 0, nb - 1).astype(np.int64)
-        top = np.full(ng * nb, -np.inf)
-        np.maximum.at(top, key, height.astype(float))
-        y_min = np.full(ng * nb, np.inf)
-        np.minimum.at(y_min, key, dy)
-        y_max = np.full(ng * nb, -np.inf)
-        np.maximum.at(y_max, key, dy)
-        top, y_min, y_max = (a.reshape(ng, nb) for a in (top, y_min, y_max))
-        mat = np.isfinite(top)
-        depth = np.where(mat, np.minimum(top - floor[:, None], self.flute_length), 0.0)
-        gap = np.zeros_like(mat)
-        gap[:, 1:-1] = ~mat[:, 1:-1] & mat[:, :-2] & mat[:, 2:]
-        if gap.any():  # a bridged bin takes the larger neighbouring depth
-            both = np.maximum(np.roll(depth, 1, axis=1), np.roll(depth, -1, axis=1))
-            depth = np.where(gap, both, depth)
-        member = mat | gap
-        level = np.where(member, np.ceil(depth / self.depth_step - 1e-9), -1.0)
-        prev_level = np.concatenate([np.full((ng, 1), -1.0), level[:, :-1]], axis=1)
-        next_level = np.concatenate([level[:, 1:], np.full((ng, 1), -1.0)], axis=1)
-        starts = member & (level != prev_level)
-        ends = member & (level != next_level)
-        run_start = member & (prev_level < 0)
-        run_end = member & (next_level < 0)
-        row, col = np.nonzero(starts)
-        _, col_end = np.nonzero(ends)
-        flat_member = np.flatnonzero(member.reshape(-1))
-        first = np.searchsorted(flat_member, row * nb + col)
-        piece_depth = np.maximum.reduceat(depth.reshape(-1)[flat_member], first)
-        edge = -r + self.width * np.arange(nb + 1)
-        wh = w_half[row]
-        lo_raw = y_min[row, col]
-        hi_raw = y_max[row, col_end]
-        y_lo = np.where(run_start[row, col],
-                        np.where(lo_raw <= -r + self.snap, -r, np.maximum(-r, lo_raw - wh)),
-                        edge[col])
-        y_hi = np.where(run_end[row, col_end],
-                        np.where(hi_raw >= r - self.snap, r, np.minimum(r, hi_raw + wh)),
-                        edge[col_end + 1])
-        return row, y_lo, y_hi, piece_depth
-
-
-def _front(wx, wy, fx, fy, ds, lam_max, radius: float, look: float):
-    """Cells in front of the cutter (see :func:`sweep`) and their lateral offset dy.
-
-    ``wx, wy``: cell centre minus tool centre [m]; the other arguments per cell or scalar.
-    """
-    dx = wx * fx + wy * fy
-    dy = -wx * fy + wy * fx
-    half = np.sqrt(np.maximum(radius**2 - dy**2, 0.0))
-    lam = np.clip(look * radius / np.maximum(half, 1e-300) - ds, 0.0, lam_max)
-    return (dx >= 0.0) & (np.abs(dy) <= radius) & (dx <= half + lam), dy
-
-
-def _capsule(ux, uy, sx, sy, seg_len2, z_prev, z_tip, z0: float, radius: float):
-    """Cells within R of the step from the previous sample, and the height it cuts them to.
-
-    ``ux, uy``: cell centre minus previous tool centre [m]; ``(sx, sy)`` the step.
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(seg_len2 > 0.0, np.clip((ux * sx + uy * sy) / seg_len2, 0.0, 1.0), 0.0)
-    inside = (ux - s * sx) ** 2 + (uy - s * sy) ** 2 <= radius**2
-    return inside, np.maximum(z_prev + s * (z_tip - z_prev), z0)
 
 
 def sweep(
@@ -776,282 +498,96 @@ def sweep(
     """Sweep a flat end mill along a path through ``stock`` (cut in place) and report engagement.
 
     At sample i, before its material is removed, the material in front of the cutter is the
-    material still present (top above the tool tip by > 1 um) in the leading half of the
-    cutter (cells with ``dx >= 0`` along the feed x, ``|dy| <= R`` across it) up to
-    ``lookahead / sin(phi)`` beyond the rim along the feed at the lateral offset dy of tooth
-    angle phi (capped at its value at :func:`snap_angle`, about 1.5 mm for h = 0.25 mm,
-    R = 9.525 mm), less the step ds from sample i-1, never past the end of the path. The
-    lookahead gives the crescent in front of the rim a thickness of at least ``lookahead``
-    normal to the rim, so every part of the rim shows its material even when the samples
-    are closer than the cells (with steps above the cap it is zero). Its price: a wall ahead
-    is seen up to that distance early (at most ``lookahead`` normal to the rim).
+    material still present (top above the tool tip by > 1 um) that the cutter's disc meets
+    along the path (:mod:`feedopt.process.stock_sweep`): outside the disc sample i-1 left
+    (under it only the bottom cuts, :attr:`StockEngagement.bottom_depth`), in the leading half
+    of the disc (``x >= 0`` along the feed: the crescent the step swept), and beyond the rim
+    up to an arc length ``lookahead / sin(phi) - ds`` along the path at the tooth angle phi
+    that meets it (capped at its value at :func:`snap_angle`, about 1.5 mm for h = 0.25 mm,
+    R = 9.525 mm, less the step ds from sample i-1, never past the end of the path, and none
+    where the path turns by more than 90 deg within it): a crescent ``lookahead`` thick normal
+    to the rim, so that every part of the rim shows its material even when the samples are
+    closer than the cells (a wall ahead is seen that much early; on a straight path the
+    lookahead of :func:`lookahead_reach`).
 
-    Each material cell is attributed to the tooth that meets it, the one at the same lateral
-    offset y (force-model frame): phi = arccos(y / R), exact for a straight feed. One interval
-    per sample: the hull of the engaged angles, ``entry = arccos(y_hi / R)``,
-    ``exit = arccos(y_lo / R)`` with [y_lo, y_hi] the lateral extent of the material (cell
-    centres widened by half the projected cell width; an end within sqrt(2) h of the rim is
-    put on the rim, see :func:`snap_angle`). That hull and the largest depth are the
-    sample's summary (``engagement.entry/exit/axial_depth``).
+    Each material cell is attributed to the tooth that meets it: phi = arccos(y' / R), with y'
+    its lateral offset, in the frame of the path's tangent, where the rim meets it (on a
+    straight path its lateral offset y). One interval per sample: the hull of the engaged
+    angles, ``entry = arccos(y_hi / R)``, ``exit = arccos(y_lo / R)`` with [y_lo, y_hi] the
+    lateral extent of the material (cell centres widened by half the projected cell width; an
+    end within sqrt(2) h of the rim is put on the rim, see :func:`snap_angle`). That hull and
+    the largest depth are the sample's summary (``engagement.entry/exit/axial_depth``).
 
     What the force model sums is finer (:class:`~feedopt.process.engagement.EngagementPieces`):
-    the material cells are binned by lateral offset in bins of width h, each bin keeping
-    its highest top; runs of material bins are the engaged intervals (two separate contacts,
-    e.g. at an inside corner cut with a small radial depth, are two intervals when more than
-    one bin of air lies between them), and a run is split into pieces where the axial depth
-    (top minus tip) changes by a ``depth_step`` (each piece at its largest depth). A sample
-    with one piece is its hull.
+    the material cells are binned by y' in bins of width h, each bin keeping its highest top;
+    runs of material bins are the engaged intervals (two separate contacts, e.g. at an inside
+    corner cut with a small radial depth, are two intervals when more than one bin of air lies
+    between them), and a run is split into pieces where the axial depth (top minus tip) changes
+    by a ``depth_step`` (each piece at its largest depth). A sample with one piece is its hull.
 
-    Implementation: where sample i-1 has left every cell inside its disc no higher than
-    sample i cuts and below sample i's material threshold (a level or rising tip), those
-    cells are neither material nor cut at sample i, and only the others matter: a crescent a
-    few hundred cells large at 0.1 mm steps. Which cells these are depends on the path only,
-    so they are found for blocks of samples at once (per grid row an interval that surely
-    holds them, with a 1 nm margin, then the exact per-cell tests of the window method), and
-    the loop over samples only reads and lowers them. Other samples (a descending tip: ramps,
-    helices) use the whole window under the capsule, as before. Both give the same result
-    cell by cell. Material is "top > max(tip, bottom) + 1 um", compared in float64.
-
-    Parameters
-    ----------
-    stock : ZMap
-        The workpiece, modified in place (use ``stock.copy()`` to keep it).
-    tool : FlatEndMill
-    positions : (n, 3) array
-        Tool tip in W [m], in cutting order.
-    tangents : (n, 3) array
-        Path tangents in W (their xy part is the feed direction; need not be unit).
-    lookahead : float, optional
-        Crescent thickness normal to the rim [m], default ``sqrt(2) h``.
-    depth_step : float, optional
-        Axial depth resolution of the pieces [m] (:data:`DEPTH_STEP`).
-
-    Returns
-    -------
-    StockEngagement
+    ``stock`` (a :class:`ZMap`) is cut in place (use ``stock.copy()`` to keep it);
+    ``positions`` (n, 3): tool tips in W [m] in cutting order; ``tangents`` (n, 3): path
+    tangents in W (their xy part is the feed direction; need not be unit); ``lookahead``: the
+    crescent's thickness [m], default ``sqrt(2) h``; ``depth_step``: the axial depth
+    resolution of the pieces [m] (:data:`DEPTH_STEP`). Returns a :class:`StockEngagement`.
     """
     p = np.asarray(positions, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
         raise InputError(f"positions must be a finite (n, 3) array [m], got shape {p.shape}")
     n = p.shape[0]
     feed = _feed_directions(tangents, n)
-    h = stock.cell
-    radius = tool.radius
+    h, radius = stock.cell, tool.radius
     look = math.sqrt(2.0) * h if lookahead is None else float(lookahead)
     if not (math.isfinite(look) and look >= 0):
         raise InputError(f"lookahead must be >= 0 mm, got {look / MM:g} mm")
-    snap = math.sqrt(2.0) * h
     if not (math.isfinite(depth_step) and depth_step > 0):
         raise InputError(f"depth_step must be > 0 mm, got {depth_step / MM:g} mm")
-    bins = _Bins(radius, h, tool.flute_length, snap, float(depth_step))
-    found_pieces: list[tuple[np.ndarray, ...]] = []
+    snap = math.sqrt(2.0) * h
     look_cap = look / max(math.sin(snap_angle(h, radius)), 1e-12)
-
-    (gx0, gy0), z0 = stock.origin, stock.bottom
-    nx, ny = stock.shape
-    xc_all, yc_all = stock.x_centres, stock.y_centres
     work = np.ascontiguousarray(stock.heights, dtype=np.float32)
-    flat = work.reshape(-1)
-
-    # per-sample geometry, as the window method computes it sample by sample
-    steps = np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)
-    remaining = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]]) if n else np.zeros(0)
-    ds = np.concatenate([[0.0], steps]) if n else np.zeros(0)
-    prev = np.concatenate([p[:1], p[:-1]]) if n else p
-    cx, cy, z = p[:, 0], p[:, 1], p[:, 2]
-    fx, fy = feed[:, 0], feed[:, 1]
-    lam_max = np.minimum(np.maximum(0.0, look_cap - ds), remaining)
-    ax, ay = cx + lam_max * fx, cy + lam_max * fy
-    lo_x = np.minimum(np.minimum(cx, prev[:, 0]), ax) - radius
-    hi_x = np.maximum(np.maximum(cx, prev[:, 0]), ax) + radius
-    lo_y = np.minimum(np.minimum(cy, prev[:, 1]), ay) - radius
-    hi_y = np.maximum(np.maximum(cy, prev[:, 1]), ay) + radius
-    i0 = np.maximum(0, np.ceil((lo_x - gx0) / h - 0.5)).astype(np.int64)
-    i1 = np.minimum(nx, np.floor((hi_x - gx0) / h - 0.5) + 1).astype(np.int64)
-    j0 = np.maximum(0, np.ceil((lo_y - gy0) / h - 0.5)).astype(np.int64)
-    j1 = np.minimum(ny, np.floor((hi_y - gy0) / h - 0.5) + 1).astype(np.int64)
-    floor = np.maximum(z, z0)
-    thr = floor + _MIN_DEPTH
-    seg_x, seg_y = cx - prev[:, 0], cy - prev[:, 1]
-    seg_len2 = seg_x * seg_x + seg_y * seg_y
-    # Sample i-1 left the cells inside its disc at most at float32(left) (its capsule's
-    # highest cut); they are not cut again when that is at or below sample i's lowest cut,
-    # and not material when at or below sample i's threshold.
-    left = np.maximum(prev[:, 2], z0)
-    if n > 2:
-        left[2:] = np.maximum(np.maximum(z[:-2], z[1:-1]), z0)
-    lowest_cut = np.maximum(np.minimum(z, prev[:, 2]), z0)
-    fast = (left <= lowest_cut) & (left.astype(np.float32) <= thr)
-    fast[:1] = False
-    # every cell in front is within r_out of the centre (dx <= half + lam with
-    # half * lam <= look R and lam <= lam_max); every cut cell within R + ds / 2 of the
-    # middle of the step
-    r_out = np.sqrt(radius**2 + 2.0 * radius * look + lam_max**2) + _EPS
-    r_cap = radius + 0.5 * ds + _EPS
-    mx, my = 0.5 * (cx + prev[:, 0]), 0.5 * (cy + prev[:, 1])
-    w_in = radius - _EPS
-
-    y_lo_raw = np.zeros(n)
-    y_hi_raw = np.zeros(n)
-    top = np.zeros(n)
-    engaged = np.zeros(n, dtype=bool)
-    removed = np.zeros(n)
-    w_half = 0.5 * h * (np.abs(fx) + np.abs(fy))
-
-    for b0 in range(0, n, _BLOCK):
-        b = slice(b0, min(n, b0 + _BLOCK))
-        nb = b.stop - b0
-        pieces = _block_pieces(
-            (cx[b], cy[b], r_out[b]),
-            (fx[b], fy[b]),
-            (mx[b], my[b], r_cap[b]),
-            (prev[b, 0], prev[b, 1], w_in),
-            (i0[b], i1[b], j0[b], j1[b]),
-            fast[b],
-            (gx0, gy0, h, ny, xc_all),
-        )
-        per_sample = sum(np.bincount(pk, weights=cnt, minlength=nb) for pk, _, cnt in pieces)
-        cum = np.cumsum(per_sample)
-        g0 = 0
-        while g0 < nb:
-            base = cum[g0 - 1] if g0 else 0.0
-            g1 = min(nb, max(g0 + 1, int(np.searchsorted(cum, base + _CELL_BUDGET, "right"))))
-            cells = []
-            for pk, starts, counts in pieces:
-                s0, s1 = np.searchsorted(pk, [g0, g1])
-                idx, owner = _expand(starts[s0:s1], counts[s0:s1])
-                ks = pk[s0:s1][owner] + b0
-                a = idx // ny
-                cells.append((idx, ks, xc_all[a], yc_all[idx - a * ny]))
-            idx, ks, xs, ys = cells[0]
-            keep, dy = _front(
-                xs - cx[ks], ys - cy[ks], fx[ks], fy[ks], ds[ks], lam_max[ks], radius, look
-            )
-            f_idx, f_dy, f_k = idx[keep], dy[keep], ks[keep]
-            f_off = np.searchsorted(f_k, np.arange(b0 + g0, b0 + g1 + 1))
-            idx, ks, xs, ys = cells[1]
-            keep, z_cut = _capsule(
-                xs - prev[ks, 0], ys - prev[ks, 1], seg_x[ks], seg_y[ks], seg_len2[ks],
-                prev[ks, 2], z[ks], z0, radius,
-            )
-            r_idx, r_z = idx[keep], z_cut[keep]
-            r_off = np.searchsorted(ks[keep], np.arange(b0 + g0, b0 + g1 + 1))
-            # Per sample its front cells then its capsule cells, read at once (both before
-            # the cut); the loop only gathers and scatters, reductions are done per group.
-            f_n, r_n = np.diff(f_off), np.diff(r_off)
-            lo_all = f_off[:-1] + r_off[:-1]  # where sample m's cells start
-            mid_all = lo_all + f_n  # ... its capsule cells start
-            pos_f = np.arange(f_idx.size) + np.repeat(r_off[:-1], f_n)
-            pos_r = np.arange(r_idx.size) + np.repeat(f_off[1:], r_n)
-            both = np.empty(f_idx.size + r_idx.size, dtype=np.int64)
-            both[pos_f], both[pos_r] = f_idx, r_idx
-            z_both = np.empty(both.size)
-            z_both[pos_r] = r_z
-            seen = np.empty(both.size, dtype=np.float32)  # heights before the cut
-            new = np.empty(both.size)
-            bounds = zip(lo_all.tolist(), mid_all.tolist(), (lo_all + f_n + r_n).tolist(),
-                         strict=True)
-            for m, (lo, mid, hi) in enumerate(bounds):
-                i = b0 + g0 + m
-                if fast[i]:
-                    flat.take(both[lo:hi], out=seen[lo:hi])
-                    flat[both[mid:hi]] = np.minimum(seen[mid:hi], z_both[mid:hi],
-                                                    out=new[mid:hi])
-                    continue
-                # the whole window under the capsule and the view ahead
-                if i0[i] >= i1[i] or j0[i] >= j1[i]:
-                    continue
-                wi, wj = slice(i0[i], i1[i]), slice(j0[i], j1[i])
-                win = work[wi, wj]
-                xw, yw = xc_all[wi, None], yc_all[None, wj]
-                front, dy = _front(
-                    xw - cx[i], yw - cy[i], fx[i], fy[i], ds[i], lam_max[i], radius, look
-                )
-                material = front & (win > thr[i])
-                if material.any():
-                    y_m = dy[material]
-                    y_lo_raw[i] = y_m.min()
-                    y_hi_raw[i] = y_m.max()
-                    top[i] = win[material].max()
-                    engaged[i] = True
-                    k_i, *rest = bins.pieces(np.zeros(y_m.size, dtype=np.int64), y_m,
-                                             win[material], 1, floor[i : i + 1],
-                                             w_half[i : i + 1])
-                    found_pieces.append((k_i + i, *rest))
-                inside, z_cut = _capsule(
-                    xw - prev[i, 0], yw - prev[i, 1], seg_x[i], seg_y[i], seg_len2[i],
-                    prev[i, 2], z[i], z0, radius,
-                )
-                cut_old = win[inside]
-                cut_new = np.minimum(cut_old, z_cut[inside]).astype(np.float32)
-                win[inside] = cut_new
-                removed[i] = np.subtract(cut_old, cut_new, dtype=float).sum()
-
-            ks = np.arange(b0 + g0, b0 + g1)
-            sel = fast[ks] & (f_n > 0)
-            if sel.any():
-                # material: top above the threshold; its top and lateral extent
-                f_seen = seen[pos_f]
-                material = f_seen > thr[f_k]
-                starts = f_off[:-1][sel]
-                hit = np.add.reduceat(material, starts) > 0
-                tops = np.maximum.reduceat(f_seen, starts)
-                y_lo_g = np.minimum.reduceat(np.where(material, f_dy, np.inf), starts)
-                y_hi_g = np.maximum.reduceat(np.where(material, f_dy, -np.inf), starts)
-                k_hit = ks[sel][hit]
-                engaged[k_hit] = True
-                top[k_hit] = tops[hit]
-                y_lo_raw[k_hit] = y_lo_g[hit]
-                y_hi_raw[k_hit] = y_hi_g[hit]
-                mine = material & fast[f_k]
-                if mine.any():
-                    k0 = b0 + g0
-                    k_g, *rest = bins.pieces(f_k[mine] - k0, f_dy[mine], f_seen[mine], g1 - g0,
-                                             floor[k0 : b0 + g1], w_half[k0 : b0 + g1])
-                    found_pieces.append((k_g + k0, *rest))
-            sel = fast[ks] & (r_n > 0)
-            if sel.any():
-                cut_new = new[pos_r].astype(np.float32)
-                diff = np.subtract(seen[pos_r], cut_new, dtype=float)
-                removed[ks[sel]] = np.add.reduceat(diff, r_off[:-1][sel])
-            g0 = g1
-
+    found = None
+    if n:
+        geometry = sweep_geometry(p, feed, radius, look, look_cap, stock.bottom, h)
+        (gx0, gy0), (nx, ny) = stock.origin, stock.shape
+        grid = Grid(gx0, gy0, h, nx, ny, stock.x_centres, stock.y_centres)
+        bins = LateralBins(radius, h, tool.flute_length, snap, float(depth_step))
+        setup = make_setup(geometry, grid, bins, radius, look, stock.bottom)
+        found = cut_along(work.reshape(-1), setup)
     if work is not stock.heights:
         np.copyto(stock.heights, work)
+    return _stock_engagement(found, p, feed, tool, stock)
 
-    entry = np.zeros(n)
-    exit_ = np.zeros(n)
-    depth = np.zeros(n)
-    lateral = np.full((n, 2), np.nan)
-    y_hi = np.where(y_hi_raw >= radius - snap, radius, np.minimum(radius, y_hi_raw + w_half))
-    y_lo = np.where(y_lo_raw <= -radius + snap, -radius, np.maximum(-radius, y_lo_raw - w_half))
-    entry[engaged] = [math.acos(v) for v in (y_hi[engaged] / radius).tolist()]
-    exit_[engaged] = [math.acos(v) for v in (y_lo[engaged] / radius).tolist()]
-    above = top - floor
+
+def _stock_engagement(found, p: np.ndarray, feed: np.ndarray, tool: FlatEndMill,
+                      stock: ZMap) -> StockEngagement:
+    """The sweep's report from what its loop found (:class:`~.stock_sweep.Found`)."""
+    n, h, radius = p.shape[0], stock.cell, tool.radius
+    if found is None:
+        empty = np.zeros(0)
+        return StockEngagement(Engagement(empty, empty, empty), np.zeros(0, dtype=bool), empty,
+                               np.zeros(0, dtype=bool), np.zeros((0, 2)), empty,
+                               EngagementPieces(np.zeros(0, dtype=np.int64), empty, empty,
+                                                empty), radius, empty, empty)
+    snap = math.sqrt(2.0) * h
+    engaged = found.engaged
+    w_half = 0.5 * h * (np.abs(feed[:, 0]) + np.abs(feed[:, 1]))
+    y_hi = np.where(found.y_hi >= radius - snap, radius, np.minimum(radius, found.y_hi + w_half))
+    y_lo = np.where(found.y_lo <= -radius + snap, -radius,
+                    np.maximum(-radius, found.y_lo - w_half))
+    entry, exit_, depth = np.zeros(n), np.zeros(n), np.zeros(n)
+    entry[engaged] = np.arccos(y_hi[engaged] / radius)
+    exit_[engaged] = np.arccos(y_lo[engaged] / radius)
+    above = found.top - np.maximum(p[:, 2], stock.bottom)
     depth[engaged] = np.minimum(above[engaged], tool.flute_length)
     beyond = engaged & (above > tool.flute_length)
-    lateral[engaged, 0] = y_lo[engaged]
-    lateral[engaged, 1] = y_hi[engaged]
-    in_air = ~engaged
-    intervals = _intervals(found_pieces, radius)
-    count = np.bincount(intervals.sample, minlength=n)
-    several = count[intervals.sample] > 1
-    pieces = EngagementPieces(intervals.sample[several], intervals.entry[several],
-                              intervals.exit[several], intervals.axial_depth[several])
-    eng = Engagement(entry, exit_, np.where(in_air, tool.flute_length, depth), pieces)
-    return StockEngagement(eng, in_air, depth, beyond, lateral, removed * h**2, intervals,
-                           radius)
-
-
-def _intervals(found: list[tuple[np.ndarray, ...]], radius: float) -> EngagementPieces:
-    """The pieces the sweep found (sample, y_lo, y_hi, depth), as angles in sample order."""
-    if not found:
-        empty = np.zeros(0)
-        return EngagementPieces(np.zeros(0, dtype=np.int64), empty, empty, empty)
-    sample, y_lo, y_hi, depth = (np.concatenate(a) for a in zip(*found, strict=True))
-    entry = np.arccos(np.clip(y_hi / radius, -1.0, 1.0))
-    exit_ = np.arccos(np.clip(y_lo / radius, -1.0, 1.0))
-    keep = exit_ > entry  # a sliver on the rim that rounds to no angle cuts nothing
-    sample, entry, exit_, depth = sample[keep], entry[keep], exit_[keep], depth[keep]
-    order = np.lexsort((entry, sample))
-    return EngagementPieces(sample[order], entry[order], exit_[order], depth[order])
+    lateral = np.full((n, 2), np.nan)
+    lateral[engaged] = np.column_stack([y_lo[engaged], y_hi[engaged]])
+    sample, iv_entry, iv_exit, iv_depth = intervals(found.pieces, radius)
+    all_pieces = EngagementPieces(sample, iv_entry, iv_exit, iv_depth)
+    several = np.bincount(sample, minlength=n)[sample] > 1
+    pieces = EngagementPieces(sample[several], iv_entry[several], iv_exit[several],
+                              iv_depth[several])
+    eng = Engagement(entry, exit_, np.where(engaged, depth, tool.flute_length), pieces)
+    return StockEngagement(eng, ~engaged, depth, beyond, lateral, found.removed * h**2,
+                           all_pieces, radius, swept_depth=found.swept,
+                           bottom_depth=found.bottom)

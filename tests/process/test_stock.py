@@ -1,6 +1,6 @@
 """Engagement from a Z-map stock against analytic engagement (straight cuts, offset passes, the
 chapter-4 ramp, corner arcs, entering and leaving), removed volumes, stocks from meshes, and the
-fast sweep against the window sweep it replaced."""
+blocked sweep against the along-path definition written out sample by sample."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import feedopt.process.stock as stock_module
 from feedopt.errors import InputError
 from feedopt.process.engagement import peripheral_engagement, slot_engagement
 from feedopt.process.stock import (
@@ -256,13 +255,17 @@ def _compare_with_reference(stock, pos, tan, lookahead=None):
     ref_stock = stock.copy()
     ref = _reference_sweep(ref_stock, TOOL, pos, tan, lookahead)
     res = sweep(stock, TOOL, pos, tan, lookahead)
-    names = ("entry", "exit", "axial_depth", "in_air", "beyond_flutes", "lateral")
+    names = ("entry", "exit", "axial_depth", "in_air", "beyond_flutes", "lateral", "removed",
+             "swept_depth", "bottom_depth")
     got = (
         res.engagement.entry, res.engagement.exit, res.axial_depth, res.in_air,
-        res.beyond_flutes, res.lateral,
+        res.beyond_flutes, res.lateral, res.removed, res.swept_depth, res.bottom_depth,
     )
     for name, a, b in zip(names, ref, got, strict=True):
-        np.testing.assert_array_equal(b, a, err_msg=name)
+        if name in ("removed", "entry", "exit", "lateral"):  # sums, acos: to rounding
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15, err_msg=name)
+        else:
+            np.testing.assert_array_equal(b, a, err_msg=name)
     np.testing.assert_array_equal(stock.heights, ref_stock.heights)
     return res
 
@@ -834,101 +837,161 @@ def test_from_mesh_refuses_what_a_zmap_cannot_hold(tmp_path):
 
 
 # --------------------------------------------------------------------------------------------
-# The sweep as it was before issue 12 sped it up (window of cells per sample), kept verbatim
-# to check that the fast sweep gives the same engagement and heights, cell by cell.
+# The along-path sweep (issue 28) written out sample by sample on a window of cells, as plainly
+# as possible, to check that the blocked sweep gives the same engagement and heights, cell by
+# cell. Definitions: feedopt.process.stock_sweep's module docstring.
 # --------------------------------------------------------------------------------------------
 
 
+def _ref_curvature(t, chord, ahead):
+    """kappa of the arc tangent to t through the chord's other end; None past 90 deg."""
+    cross = t[0] * chord[1] - t[1] * chord[0]
+    cross = cross if ahead else -cross
+    dot = t[0] * chord[0] + t[1] * chord[1]
+    length2 = chord[0] ** 2 + chord[1] ** 2
+    if length2 <= 1e-18 or dot < abs(cross):
+        return None
+    return 2.0 * cross / length2
+
+
+def _ref_arc(x, y, k):
+    return x if k == 0.0 else np.arctan2(k * x, 1.0 - k * y) / k
+
+
+def _ref_front(dx, dy, kb, ka, ds, lam_max, radius, look):
+    """In front (before leaving out the previous disc) and y' of cells at (dx, dy)."""
+    excess = radius**2 - dx**2 - dy**2
+    inside = excess >= 0
+    dyc = dy + 0.5 * np.where(inside, kb, ka) * excess
+    half = np.sqrt(np.maximum(radius**2 - dyc**2, 0.0))
+    sigma = _ref_arc(dx, dy, ka) - _ref_arc(half, dyc, ka)
+    lam = np.clip(look * radius / np.maximum(half, 1e-300) - ds, 0.0, lam_max)
+    ahead = ~inside & (np.abs(dyc) <= radius) & (sigma > 0) & (sigma <= lam)
+    return (inside | ahead) & (dx >= 0), np.clip(dyc, -radius, radius)
+
+
+def _ref_cut_height(ux, uy, seg, z_prev, z_tip, radius):
+    """Swept by the step (centre within R of it) and the lowest tip height over the cell:
+    the covered parameters are the roots of |u - s seg|^2 = R^2."""
+    len2 = float(seg @ seg)
+    if len2 == 0.0:
+        return ux**2 + uy**2 <= radius**2, np.full(ux.shape, min(z_prev, z_tip))
+    b = ux * seg[0] + uy * seg[1]
+    s = np.clip(b / len2, 0.0, 1.0)
+    swept = (ux - s * seg[0]) ** 2 + (uy - s * seg[1]) ** 2 <= radius**2
+    root = np.sqrt(np.maximum(b * b - len2 * (ux**2 + uy**2 - radius**2), 0.0))
+    if z_tip < z_prev:
+        s_last = np.clip((b + root) / len2, 0.0, 1.0)
+        return swept, z_tip + (z_prev - z_tip) * (1.0 - s_last)
+    s_first = np.clip((b - root) / len2, 0.0, 1.0)
+    return swept, z_prev + (z_tip - z_prev) * s_first
+
+
+def _ref_arc_cut_height(wx, wy, f, kb, chord, z_prev, z_tip, radius):
+    """As :func:`_ref_cut_height` along the arc of the step (curvature kb, ending at the
+    sample with tangent f; (wx, wy) relative to the sample): with the arc's centre O, a disc
+    at polar angle t about O covers the cell iff the angle to the cell's is at most
+    acos((rho^2 + d^2 - R^2) / (2 rho d))."""
+    rho = 1.0 / abs(kb)
+    sense = math.copysign(1.0, kb)
+    ox, oy = -f[1] * sense * rho, f[0] * sense * rho  # O from the sample
+    d = np.hypot(wx - ox, wy - oy)
+    t_c = math.atan2(-oy, -ox)
+    t_q = np.arctan2(wy - oy, wx - ox)
+    u = sense * rho * np.angle(np.exp(1j * (t_q - t_c)))  # arc length from the sample
+    with np.errstate(divide="ignore", invalid="ignore"):  # 1 - cos b, without cancelling
+        sin2 = (radius**2 - (rho - d) ** 2) / (4.0 * rho * d)
+    full = sin2 >= 1.0
+    half = 2.0 * rho * np.arcsin(np.sqrt(np.clip(sin2, 0.0, 1.0)))
+    cos_b = 1.0 - 2.0 * sin2
+    length = 2.0 * rho * math.asin(min(1.0, 0.5 * chord / rho))
+    first, last = np.full(u.shape, np.inf), np.full(u.shape, -np.inf)
+    for m in (-1, 0, 1):
+        lo = np.maximum(u + m * 2 * math.pi * rho - half, -length)
+        hi = np.minimum(u + m * 2 * math.pi * rho + half, 0.0)
+        ok = (lo <= hi) & (cos_b <= 1.0)
+        first = np.where(ok, np.minimum(first, lo), first)
+        last = np.where(ok, np.maximum(last, hi), last)
+    first, last = np.where(full, -length, first), np.where(full, 0.0, last)
+    swept = first <= last
+    s_first = np.clip(1.0 + first / length, 0.0, 1.0)
+    s_last = np.clip(1.0 + last / length, 0.0, 1.0)
+    if z_tip < z_prev:
+        return swept, z_tip + (z_prev - z_tip) * (1.0 - s_last)
+    return swept, z_prev + (z_tip - z_prev) * s_first
+
+
 def _reference_sweep(stock, tool, positions, tangents, lookahead=None):
-    """Old ``sweep``: (entry, exit, axial depth, in_air, beyond_flutes, lateral)."""
-    _MIN_DEPTH = 1e-6  # noqa: N806
+    """(entry, exit, axial depth, in_air, beyond_flutes, lateral, removed, swept, bottom)."""
     p = np.asarray(positions, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or not np.all(np.isfinite(p)):
-        raise InputError(f"positions must be a finite (n, 3) array [m], got shape {p.shape}")
     n = p.shape[0]
-    feed = stock_module._feed_directions(tangents, n)
-    h = stock.cell
-    radius = tool.radius
+    t = np.asarray(tangents, dtype=float)[:, :2]
+    feed = t / np.linalg.norm(t, axis=1)[:, None]
+    h, radius, z0 = stock.cell, tool.radius, stock.bottom
     look = math.sqrt(2.0) * h if lookahead is None else float(lookahead)
-    if not (math.isfinite(look) and look >= 0):
-        raise InputError(f"lookahead must be >= 0 mm, got {look / MM:g} mm")
     snap = math.sqrt(2.0) * h
     look_cap = look / max(math.sin(snap_angle(h, radius)), 1e-12)
-
     steps = np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1)
-    remaining = np.concatenate([np.cumsum(steps[::-1])[::-1], [0.0]]) if n else np.zeros(0)
+    s_xy = np.concatenate([[0.0], np.cumsum(steps)])
     xc_all, yc_all = stock.x_centres, stock.y_centres
-    (gx0, gy0), z0 = stock.origin, stock.bottom
     heights = stock.heights
-
-    entry = np.zeros(n)
-    exit_ = np.zeros(n)
-    depth = np.zeros(n)
-    in_air = np.ones(n, dtype=bool)
-    beyond = np.zeros(n, dtype=bool)
+    out = {k: np.zeros(n) for k in ("entry", "exit", "depth", "removed", "swept", "bottom")}
+    in_air, beyond = np.ones(n, dtype=bool), np.zeros(n, dtype=bool)
     lateral = np.full((n, 2), np.nan)
-
+    flat = 0.5 * (radius + look_cap) ** 2
     for i in range(n):
-        c = p[i, :2]
-        ztip = p[i, 2]
-        fx, fy = feed[i]
-        prev = p[i - 1] if i > 0 else p[i]
-        ds = float(steps[i - 1]) if i > 0 else 0.0
-        # lookahead per lateral offset y: ``look`` normal to the rim, i.e. look / sin(phi)
-        # along the feed, capped at its value at the snap angle, less the step already taken,
-        # never past the path end
-        lam_max = min(max(0.0, look_cap - ds), float(remaining[i]))
-        ahead = c + lam_max * feed[i]
-
-        lo_x = min(c[0], prev[0], ahead[0]) - radius
-        hi_x = max(c[0], prev[0], ahead[0]) + radius
-        lo_y = min(c[1], prev[1], ahead[1]) - radius
-        hi_y = max(c[1], prev[1], ahead[1]) + radius
-        i0 = max(0, math.ceil((lo_x - gx0) / h - 0.5))
-        i1 = min(stock.shape[0], math.floor((hi_x - gx0) / h - 0.5) + 1)
-        j0 = max(0, math.ceil((lo_y - gy0) / h - 0.5))
-        j1 = min(stock.shape[1], math.floor((hi_y - gy0) / h - 0.5) + 1)
-        if i0 >= i1 or j0 >= j1:
+        c, z, f = p[i, :2], p[i, 2], feed[i]
+        prev = p[i - 1] if i else p[i]
+        ds = float(steps[i - 1]) if i else 0.0
+        lam_max = min(max(0.0, look_cap - ds), s_xy[-1] - s_xy[i])
+        j = i + 1  # the next sample at least min(lam_max, h / 2) on
+        while j < n - 1 and s_xy[j] < s_xy[i] + max(min(lam_max, 0.5 * h), 1e-9):
+            j += 1
+        ka = _ref_curvature(f, p[min(j, n - 1), :2] - c, True)
+        lam_max, ka = (0.0, 0.0) if ka is None else (lam_max, ka)
+        lam_max = min(lam_max, 0.5 * math.pi / abs(ka)) if ka else lam_max
+        kb = _ref_curvature(f, c - prev[:2], False) or 0.0
+        ka, kb = (k if abs(k) * flat > 1e-12 else 0.0 for k in (ka, kb))
+        reach = radius + look_cap + 2.0 * ds + 1e-3
+        wi = (np.abs(xc_all - c[0]) <= reach).nonzero()[0]
+        wj = (np.abs(yc_all - c[1]) <= reach).nonzero()[0]
+        if wi.size == 0 or wj.size == 0:
             continue
-        wx = xc_all[i0:i1, None] - c[0]
-        wy = yc_all[None, j0:j1] - c[1]
-        win = heights[i0:i1, j0:j1]
-
-        # engagement from the material in front, before this sample cuts
-        dx = wx * fx + wy * fy
-        dy = -wx * fy + wy * fx
-        half = np.sqrt(np.maximum(radius**2 - dy**2, 0.0))
-        lam = np.clip(look * radius / np.maximum(half, 1e-300) - ds, 0.0, lam_max)
-        front = (dx >= 0.0) & (np.abs(dy) <= radius) & (dx <= half + lam)
-        floor = max(ztip, z0)
-        material = front & (win > floor + _MIN_DEPTH)
-        if np.any(material):
-            y_m = dy[material]
-            w_half = 0.5 * h * (abs(fx) + abs(fy))
-            y_hi = float(y_m.max())
-            y_lo = float(y_m.min())
+        wi, wj = slice(wi[0], wi[-1] + 1), slice(wj[0], wj[-1] + 1)
+        win = heights[wi, wj]
+        wx, wy = xc_all[wi, None] - c[0], yc_all[None, wj] - c[1]
+        dx, dy = wx * f[0] + wy * f[1], wy * f[0] - wx * f[1]
+        front, dyc = _ref_front(dx, dy, kb, ka, ds, lam_max, radius, look)
+        to_prev2 = (xc_all[wi, None] - prev[0]) ** 2 + (yc_all[None, wj] - prev[1]) ** 2
+        if i:
+            front &= to_prev2 > (radius - 1e-9) ** 2
+        floor = max(z, z0)
+        material = front & (win > floor + 1e-6)
+        if material.any():
+            w_half = 0.5 * h * (abs(f[0]) + abs(f[1]))
+            y_hi, y_lo = float(dyc[material].max()), float(dyc[material].min())
             y_hi = radius if y_hi >= radius - snap else min(radius, y_hi + w_half)
             y_lo = -radius if y_lo <= -radius + snap else max(-radius, y_lo - w_half)
             top = float(win[material].max())
             in_air[i] = False
-            entry[i] = math.acos(y_hi / radius)
-            exit_[i] = math.acos(y_lo / radius)
-            depth[i] = min(top - floor, tool.flute_length)
+            out["entry"][i], out["exit"][i] = math.acos(y_hi / radius), math.acos(y_lo / radius)
+            out["depth"][i] = min(top - floor, tool.flute_length)
             beyond[i] = top - floor > tool.flute_length
             lateral[i] = (y_lo, y_hi)
-
-        # remove the capsule swept from sample i-1 to sample i
-        seg = c - prev[:2]
-        seg_len2 = float(seg @ seg)
-        ux = xc_all[i0:i1, None] - prev[0]
-        uy = yc_all[None, j0:j1] - prev[1]
-        if seg_len2 > 0.0:
-            s = np.clip((ux * seg[0] + uy * seg[1]) / seg_len2, 0.0, 1.0)
+        ux, uy = xc_all[wi, None] - prev[0], yc_all[None, wj] - prev[1]
+        if abs(kb) * ds**2 > 8e-12:  # the arc bulges from the chord by more than 1e-12 m
+            swept, z_cut = _ref_arc_cut_height(wx + 0 * wy, wy + 0 * wx, f, kb, ds, prev[2], z,
+                                               radius)
         else:
-            s = np.zeros_like(ux + uy)
-        inside = (ux - s * seg[0]) ** 2 + (uy - s * seg[1]) ** 2 <= radius**2
-        z_cut = np.maximum(prev[2] + s * (ztip - prev[2]), z0)
-        np.copyto(win, np.minimum(win, z_cut).astype(np.float32), where=inside)
-
-    return entry, exit_, depth, in_air, beyond, lateral
-
+            swept, z_cut = _ref_cut_height(ux + 0 * uy, uy + 0 * ux, c - prev[:2], prev[2], z,
+                                           radius)
+        old = win[swept]
+        new = np.minimum(old, np.maximum(z_cut[swept], z0)).astype(np.float32)
+        win[swept] = new
+        cut = np.subtract(old, new, dtype=float)
+        if cut.size:
+            out["removed"][i], out["swept"][i] = cut.sum() * h**2, cut.max()
+            layer = max(max(prev[2], z0) - floor, 0.0) if i else 0.0  # down from the last tip
+            out["bottom"][i] = np.minimum(cut, layer).max()
+    return (out["entry"], out["exit"], out["depth"], in_air, beyond, lateral, out["removed"],
+            out["swept"], out["bottom"])

@@ -52,7 +52,9 @@ def test_a_stock_beside_the_path_is_refused_by_run_and_validate(stock_scenario, 
     assert "the stock x 5000..5203.25" in err and "stock.air_cut: true" in err
     assert main(["validate", str(scenario)]) == 2
     err = capsys.readouterr().err
-    assert "the path cannot cut the stock" in err and "x 5000..5203.25" in err
+    # (validate refuses it before sweeping, or, running the run's process stage, as run does)
+    assert ("the path cannot cut the stock" in err or "the path cuts no material" in err)
+    assert "x 5000..5203.25" in err
     csv = tmp_path / "e.csv"
     assert main(["engagement", str(scenario), "--out", str(csv)]) == 2
     assert "the path cuts no material" in capsys.readouterr().err and not csv.exists()
