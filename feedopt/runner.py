@@ -25,7 +25,7 @@ from feedopt import background, outdir
 from feedopt.cell import Placement, place_path
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
-from feedopt.geometry.path import PathPoints
+from feedopt.geometry.path import PathPoints, check_sample_count
 from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
 from feedopt.parallel import single_threaded_blas
@@ -59,8 +59,8 @@ from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM, MS
 from feedopt.verify import Verdict, Verification, is_finite, replay_all
 
-# Largest number of path samples a run plans (memory: ~2 kB per sample across the stages).
-MAX_SAMPLES = 2_000_000
+# The largest number of path samples a run plans is feedopt.geometry.path.MAX_SAMPLES (shared
+# with feedopt path: check_sample_count).
 # Largest number of controller cycles one exported trajectory may have: 11 h at 4 ms, about
 # 2.5 GB of RSI CSV (~250 bytes per row). Checked on T* before planning and per law after.
 MAX_CONTROLLER_ROWS = 10_000_000
@@ -166,13 +166,7 @@ def _segment_names(path: ToolPath) -> list[str]:
 
 
 def _sample(path: ToolPath, spacing: float) -> PathPoints:
-    n_samples = path.length / spacing + 1
-    if n_samples > MAX_SAMPLES:
-        raise InputError(
-            f"path.spacing_mm = {spacing / MM:g} mm gives {n_samples:.3g} samples on the "
-            f"{path.length / MM:.1f} mm path; at most {MAX_SAMPLES:.0e} are planned (use "
-            f"a spacing of at least {path.length / MM / (MAX_SAMPLES - 1):.2g} mm)"
-        )
+    check_sample_count(path.length, spacing, "path.spacing_mm")
     return path.sample(spacing)
 
 
@@ -798,29 +792,31 @@ def _run_in(scenario: Scenario, base_dir: Path, dest: outdir.Destination, laws: 
 
 
 def validate_scenario(scenario_path: str | Path) -> str:
-    """Check a scenario without planning: schema, files, robot, tool, material, path, stock."""
-    from feedopt.process.coefficients import load_coefficients
-    from feedopt.process.material import check_stock
-
+    """Check a scenario without planning: schema, files, robot, tool, material, path, and the
+    process stage a run does (the stock sweep with its crash and plunge checks, the program's
+    tool comment, the engagement), so that what ``run`` refuses ``validate`` refuses too."""
     scenario, base_dir = load_scenario(scenario_path)
-    tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))
-    table = load_coefficients(resolve(base_dir, scenario.material, "material file"))
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
-        check_program_tool(path, tool, scenario.path.file, scenario.tool)
-    table.at(scenario.cut.spindle_rpm, extrapolate=scenario.cut.extrapolate_coefficients)
+    spacing = scenario.path.spacing_mm * MM
+    samples = _sample(path, spacing)
+    tool_file = resolve(base_dir, scenario.tool, "tool file")
+    if scenario.stock is not None and scenario.stock.from_program:
+        scenario, _ = resolve_program_stock(scenario, 0.5 * load_tool(tool_file).diameter,
+                                            samples, path.moves, spacing)
+    process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
+                                 samples, _segment_names(path), moves=path.moves)
+    notes = check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
+    notes += process.warnings
     stock = ""
-    if scenario.stock is not None:  # built (bounded) as a run builds it; path beside it refused
-        samples = _sample(path, scenario.path.spacing_mm * MM)
-        scenario, _ = resolve_program_stock(scenario, 0.5 * tool.diameter, samples, path.moves,
-                                            scenario.path.spacing_mm * MM)
-        zmap, notes = check_stock(scenario.stock, lambda rel, what: resolve(base_dir, rel, what),
-                                  tool, samples.position)
+    if process.material is not None:
+        zmap = process.material.before
         units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
                  else "")
         stock = (f"; stock {zmap.shape[0]} x {zmap.shape[1]} cells of {zmap.cell / MM:g} mm"
-                 f"{units}" + "".join(f"\nwarning: {note}" for note in notes))
+                 f"{units}")
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
-            f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}")
+            f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}"
+            + "".join(f"\nwarning: {note}" for note in notes))

@@ -144,3 +144,48 @@ def test_an_all_comment_scenario_over_the_cap_is_refused_at_once(tmp_path, capsy
     assert main(["validate", str(p)]) == 2
     assert "a scenario must be a YAML mapping of sections, got NoneType" in \
         capsys.readouterr().err
+
+
+# ------------------------------------------- validate applies run's stock checks (issue 28)
+
+_CRASH_PROGRAM = """%
+O0100
+G21 G90 G17
+T1 M6
+S1500 M3
+G0 X-30. Y0. Z5.
+G0 Z-2.
+G1 X10. F300.
+G0 X60.
+G0 Z5.
+M5
+M30
+%
+"""
+
+
+def _stock_scenario(tmp_path: Path, program: str) -> Path:
+    """pocket.yaml in ``tmp_path`` running ``program`` against its 160 x 120 mm stock box."""
+    doc = yaml.safe_load((ROOT / "scenarios" / "pocket.yaml").read_text())
+    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+    doc["tool"] = str(ROOT / "scenarios" / doc["tool"])
+    doc["material"] = str(ROOT / "scenarios" / doc["material"])
+    (tmp_path / "job.nc").write_text(program)
+    doc["path"]["file"] = "job.nc"
+    doc["path"]["spacing_mm"] = 0.5
+    path = tmp_path / "job.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_validate_refuses_a_rapid_through_the_stock_as_run_does(tmp_path, capsys):
+    scen = _stock_scenario(tmp_path, _CRASH_PROGRAM)
+    assert main(["validate", str(scen)]) == 2
+    err = capsys.readouterr().err
+    assert "job.nc line 9" in err and "a rapid (G0) meets material" in err
+
+
+def test_validate_accepts_the_same_cut_without_the_crash(tmp_path, capsys):
+    scen = _stock_scenario(tmp_path, _CRASH_PROGRAM.replace("G0 X60.\nG0 Z5.", "G0 Z5.\nG0 X60."))
+    assert main(["validate", str(scen)]) == 0
+    assert "stock 640 x 480 cells of 0.25 mm" in capsys.readouterr().out
