@@ -10,7 +10,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.geometry import waves
 from feedopt.geometry.continuity import continuity_report
-from feedopt.geometry.path import Path, build_lipb_path
+from feedopt.geometry.path import Path, build_lipb_path, check_sample_count
 from feedopt.geometry.registry import NO_BLEND, blend_names, get_blend, size_parameters
 from feedopt.geometry.waypoints import read_waypoints_csv
 from feedopt.outfile import Writer, check_data_and_plot, write_files_atomically
@@ -18,7 +18,6 @@ from feedopt.units import MM, MM_PER_M
 
 BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.square_wave,
            "builtin:line": waves.straight_line}
-MAX_SAMPLES = 20_000_000
 HEADER = "s_mm,x_mm,y_mm,z_mm,tx,ty,tz,kx_1_mm,ky_1_mm,kz_1_mm"
 PROGRAM_HEADER = HEADER + ",line,n,move,nominal_feed_mm_s"
 #: file suffixes read as G-code programs (CAM post-processor outputs)
@@ -79,7 +78,8 @@ def add_parser(subparsers) -> None:
                    help="program: largest start/end radius difference of an arc (default "
                    "0.002)")
     p.add_argument("--max-rows", type=int, default=40,
-                   help="junction rows printed (head and tail; default 40, 0 = all, >= 0)")
+                   help="junction rows (and smoothed chains) printed (head and tail; default "
+                   "40, 0 = all, >= 0)")
     p.set_defaults(func=run)
 
 
@@ -131,12 +131,7 @@ def run(args: argparse.Namespace) -> int:
         args.waypoints)
     path = build_lipb_path(w, args.blend, size, drop_repeated=args.drop_repeated,
                            repeat_hint=REPEAT_HINT)
-    n = int(np.ceil(path.length / spacing)) + 1
-    if n > MAX_SAMPLES:
-        raise InputError(
-            f"--spacing {args.spacing} mm gives {n} samples over {path.length * MM_PER_M:.6g} mm "
-            f"(limit {MAX_SAMPLES}); use a spacing of at least "
-            f"{path.length * MM_PER_M / (MAX_SAMPLES - 1):.3g} mm")
+    check_sample_count(path.length, spacing, "--spacing")
     _print_summary(args, path, len(w), size)
     _write_outputs(args, path, spacing, w)
     return 0
@@ -163,12 +158,7 @@ def _run_program(args: argparse.Namespace) -> int:
         tolerance=tol, air_tolerance=air, blend=args.blend, blend_size=size,
         stock_top=args.stock_top * MM))
     path = result.path
-    n = int(np.ceil(path.length / spacing)) + 1
-    if n > MAX_SAMPLES:
-        raise InputError(
-            f"--spacing {args.spacing} mm gives {n} samples over {path.length * MM_PER_M:.6g} mm "
-            f"(limit {MAX_SAMPLES}); use a spacing of at least "
-            f"{path.length * MM_PER_M / (MAX_SAMPLES - 1):.3g} mm")
+    check_sample_count(path.length, spacing, "--spacing")  # the limit of feedopt run
     kinds = path.segment_kind
     counts = ", ".join(f"{k} {kinds.count(k)}" for k in dict.fromkeys(kinds))
     cats = ", ".join(f"{c} {int(np.sum(result.moves.category == c))}"
@@ -176,16 +166,30 @@ def _run_program(args: argparse.Namespace) -> int:
     print(f"program: {args.waypoints}: {len(program.moves)} moves ({cats})")
     for w in (*program.warnings, *result.warnings):
         print(f"note: {w}")
-    for c in result.chains:
-        print(f"smoothed chain: lines {c.first_line}-{c.last_line} ({c.moves} moves, "
-              f"{c.length * MM_PER_M:.3f} mm): deviation {c.deviation * MM_PER_M:.3g} mm, "
-              f"coverage {c.coverage * MM_PER_M:.3g} mm")
+    _print_chains(result.chains, args.max_rows or None)
     print(f"blend: {args.blend} up to {size * MM_PER_M:g} mm; tolerance {tol * MM_PER_M:g} mm "
           f"(air {air * MM_PER_M:g} mm)")
     print(f"path length: {path.length * MM_PER_M:.6f} mm, segments: {len(kinds)} ({counts})")
     print(result.junctions.table(max_rows=args.max_rows or None))
     _write_outputs(args, path, spacing, program.ends * MM, program=result)
     return 0
+
+
+def _print_chains(chains, max_rows: int | None) -> None:
+    """One line per smoothed chain; long lists keep head and tail (as the junction table)."""
+    shown = list(range(len(chains)))
+    if max_rows is not None and len(shown) > max_rows:
+        half = max_rows // 2
+        shown = shown[:half] + [-1] + shown[-half:]
+    for i in shown:
+        if i < 0:
+            print(f"smoothed chains: ... ({len(chains) - 2 * (max_rows // 2)} more; "
+                  "--max-rows 0 lists all)")
+            continue
+        c = chains[i]
+        print(f"smoothed chain: lines {c.first_line}-{c.last_line} ({c.moves} moves, "
+              f"{c.length * MM_PER_M:.3f} mm): deviation {c.deviation * MM_PER_M:.3g} mm, "
+              f"coverage {c.coverage * MM_PER_M:.3g} mm")
 
 
 def _check_args(args: argparse.Namespace) -> tuple[float, float]:

@@ -11,7 +11,9 @@ in a path -> position, tangent, curvature vector and its derivative by arc lengt
 The parametric kinds (Bezier, varying radius) are evaluated by arc length through the
 numerical s(t) table of :mod:`feedopt.geometry.arclength` (Eq. 3.23):
 :class:`ParametricEvaluator` is the common part, for new parametric kinds too.
-Importing this module registers the four kinds (``feedopt.geometry`` does it).
+Importing this module registers the four kinds (``feedopt.geometry`` does it). Their
+builders take one size or one size per corner (an (m,) array, :data:`ARRAY_SIZES`), so a
+program's corners, each sized to its own tolerance, are built in one call.
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ if TYPE_CHECKING:  # pragma: no cover
 # tends to 0 while p_2 stays on the corner, so the speed nearly vanishes at both ends and
 # mid-blend (curvature peak ~280/delta at this limit) and its arc length loses accuracy
 BEZIER4_TURN_MARGIN = 0.1
+#: the kinds whose ``build`` and ``tangent_distance`` accept one size per corner
+ARRAY_SIZES = frozenset({"circle", "bezier4", "bezier5", "varying_radius"})
 
 
 def _rows(segs: Sequence[Segment], key: str) -> np.ndarray:
@@ -205,29 +209,29 @@ def _circle_params(cb: blends.CircleBlend) -> dict[str, np.ndarray]:
             "angle": cb.angle}
 
 
-def build_circle(c: blends.Corners, r: float) -> BuiltBlends:
+def build_circle(c: blends.Corners, r: float | np.ndarray) -> BuiltBlends:
     """Arcs of radius ``r`` (appendix B.1, :func:`~feedopt.geometry.blends.circle_blend`);
     length r gamma."""
     cb = blends.circle_blend(c, r)
     return BuiltBlends(_circle_params(cb), cb.radius * cb.angle)
 
 
-def _build_bezier(c: blends.Corners, delta: float, order: int) -> BuiltBlends:
+def _build_bezier(c: blends.Corners, delta: float | np.ndarray, order: int) -> BuiltBlends:
     control, alpha = blends.bezier_control_points(c, delta, order)
     return tabulated({"control": control, "alpha": alpha}, BezierEvaluator(control=control))
 
 
-def build_bezier4(c: blends.Corners, delta: float) -> BuiltBlends:
+def build_bezier4(c: blends.Corners, delta: float | np.ndarray) -> BuiltBlends:
     """4th-order Bezier blends of tolerance ``delta`` (Eq. 3.1-3.4)."""
     return _build_bezier(c, delta, 4)
 
 
-def build_bezier5(c: blends.Corners, delta: float) -> BuiltBlends:
+def build_bezier5(c: blends.Corners, delta: float | np.ndarray) -> BuiltBlends:
     """5th-order Bezier blends of tolerance ``delta`` (Eq. 3.5-3.8)."""
     return _build_bezier(c, delta, 5)
 
 
-def build_varying_radius(c: blends.Corners, r0: float) -> BuiltBlends:
+def build_varying_radius(c: blends.Corners, r0: float | np.ndarray) -> BuiltBlends:
     """Varying-radius blends (Eq. 3.13-3.17) on the circle blend's geometry: r(0) =
     r(theta_f) = r0 about the circle's centre, theta_f = the turning angle."""
     cb = blends.circle_blend(c, r0)

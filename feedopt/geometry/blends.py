@@ -1,9 +1,10 @@
 """Corner blends of linear interpolation with polynomial blends (LIPB), thesis 3.3 and B.1.
 
-All functions are vectorised over the corners of a polyline (leading axis ``m``) and work in
-3D: every corner lives in its own plane, spanned by the incoming direction ``d_in`` and the
-inward normal ``normal`` (the component of ``d_out`` perpendicular to ``d_in``, i.e. the
-side the path turns to). Angles: ``turn`` is the turning angle gamma between the travel
+All functions are vectorised over the corners of a polyline (leading axis ``m``), the sizes
+(radius, tolerance) may be one number or one per corner, and they work in 3D: every corner
+lives in its own plane, spanned by the incoming direction ``d_in`` and the inward normal
+``normal`` (the component of ``d_out`` perpendicular to ``d_in``, i.e. the side the path
+turns to). Angles: ``turn`` is the turning angle gamma between the travel
 directions; the corner (interior) angle of appendix B.1 is ``alpha = pi - gamma``.
 """
 
@@ -88,11 +89,11 @@ def largest_fitting_size(kind: str, turn: np.ndarray, room: np.ndarray) -> np.nd
     return blend.largest_size(turn, room)
 
 
-def radius_tangent_distance(turn: np.ndarray, r: float) -> np.ndarray:
-    """``l_s = r / |tan(alpha/2)| = r tan(gamma/2)`` of a blend of radius ``r`` tangent to
-    both lines (appendix B.1; circle and varying_radius)."""
+def radius_tangent_distance(turn: np.ndarray, r: float | np.ndarray) -> np.ndarray:
+    """``l_s = r / |tan(alpha/2)| = r tan(gamma/2)`` of a blend of radius ``r`` (one, or one
+    per corner) tangent to both lines (appendix B.1; circle and varying_radius)."""
     turn = np.asarray(turn, dtype=float)
-    return r * np.tan(0.5 * turn)
+    return np.asarray(r, dtype=float) * np.tan(0.5 * turn)
 
 
 def radius_fitting(turn: np.ndarray, room: np.ndarray) -> np.ndarray:
@@ -101,11 +102,11 @@ def radius_fitting(turn: np.ndarray, room: np.ndarray) -> np.ndarray:
         return room / np.tan(0.5 * np.asarray(turn, dtype=float))
 
 
-def tolerance_tangent_distance(turn: np.ndarray, delta: float) -> np.ndarray:
-    """The tolerance delta itself: the blend starts where the sphere of radius delta about
-    q_k meets the lines (Eq. 3.1 and 3.5; bezier4, bezier5)."""
+def tolerance_tangent_distance(turn: np.ndarray, delta: float | np.ndarray) -> np.ndarray:
+    """The tolerance delta itself (one, or one per corner): the blend starts where the sphere
+    of radius delta about q_k meets the lines (Eq. 3.1 and 3.5; bezier4, bezier5)."""
     turn = np.asarray(turn, dtype=float)
-    return np.full_like(turn, float(delta))
+    return np.broadcast_to(np.asarray(delta, dtype=float), turn.shape).copy()
 
 
 def tolerance_fitting(turn: np.ndarray, room: np.ndarray) -> np.ndarray:
@@ -130,23 +131,29 @@ class CircleBlend:
     end: np.ndarray  # (m, 3) tangent point P_t2 on the outgoing line
 
 
-def circle_blend(c: Corners, r: float) -> CircleBlend:
-    """Circle of radius ``r`` tangent to both lines of every corner (appendix B.1).
+def _per_corner(size: float | np.ndarray, m: int) -> np.ndarray:
+    """A size given once or per corner as an (m,) array."""
+    return np.broadcast_to(np.asarray(size, dtype=float), (m,)).copy()
+
+
+def circle_blend(c: Corners, r: float | np.ndarray) -> CircleBlend:
+    """Circle of radius ``r`` (one, or one per corner) tangent to both lines of every corner
+    (appendix B.1).
 
     Tangent points ``P_t = q_k -/+ l_s d`` with ``l_s = r tan(gamma/2)``; the centre is
     ``P_t1 + r n`` with ``n`` the inward normal from the corner's own plane (the thesis took
     the perpendicular of a concave-down 2D corner; this works for any orientation).
     """
+    r = _per_corner(r, len(c.turn))
     ls = radius_tangent_distance(c.turn, r)
     start = c.point - ls[:, None] * c.d_in
     end = c.point + ls[:, None] * c.d_out
-    centre = start + r * c.normal
-    m = len(c.turn)
+    centre = start + r[:, None] * c.normal
     return CircleBlend(
         centre=centre,
         e1=-c.normal,
         e2=c.d_in.copy(),
-        radius=np.full(m, float(r)),
+        radius=r,
         angle=c.turn.copy(),
         start=start,
         end=end,
@@ -178,14 +185,17 @@ def bezier_alpha(p0: np.ndarray, p_end: np.ndarray, t0: np.ndarray, t_end: np.nd
     return stable
 
 
-def bezier_control_points(c: Corners, delta: float, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Control points (m, order+1, 3) and alpha (m,) of the Bezier blends.
+def bezier_control_points(c: Corners, delta: float | np.ndarray, order: int
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """Control points (m, order+1, 3) and alpha (m,) of the Bezier blends of tolerance
+    ``delta`` (one, or one per corner).
 
     q' = q_k - delta d_in, q'' = q_k + delta d_out (sphere of radius delta about q_k meets
     the lines), unit tangents t_0 = (q_k - q')/delta, t_end = (q'' - q_k)/delta
     (Eq. 3.1, 3.5); control points by Eq. 3.4 (order 4) or Eq. 3.8 (order 5).
     """
     q = c.point
+    delta = _per_corner(delta, len(c.turn))[:, None]
     qa = q - delta * c.d_in
     qb = q + delta * c.d_out
     t0 = (q - qa) / delta

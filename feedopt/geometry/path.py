@@ -48,6 +48,20 @@ REVERSAL_TOL = 1e-3
 #: what the repeated-waypoint message suggests unless the caller passes its own ``repeat_hint``
 DEFAULT_REPEAT_HINT = "pass drop_repeated=True (CLI: --drop-repeated)"
 _CHUNK = 1 << 16
+#: largest number of samples a path is planned or written with (memory: ~2 kB per sample
+#: across the stages of a run); ``feedopt run`` and ``feedopt path`` refuse more
+MAX_SAMPLES = 2_000_000
+
+
+def check_sample_count(length: float, spacing: float, option: str) -> None:
+    """InputError when sampling a path ``length`` [m] long every ``spacing`` [m] gives more
+    than :data:`MAX_SAMPLES` samples, naming ``option`` and the spacing that would do."""
+    n_samples = length / spacing + 1
+    if n_samples > MAX_SAMPLES:
+        raise InputError(
+            f"{option} = {spacing / MM:g} mm gives {n_samples:.3g} samples on the "
+            f"{length / MM:.1f} mm path; at most {MAX_SAMPLES:.0e} are planned (use "
+            f"a spacing of at least {length / MM / (MAX_SAMPLES - 1):.2g} mm)")
 
 
 @dataclass(frozen=True)

@@ -13,15 +13,21 @@ chord-length parameter u (the polyline's own arc length [m]), few knots to start
 added in the knot spans where the tolerance is not met (FITPACK's curfit/parcur add knots
 where the residual is largest; here the criterion is the max-norm tolerance rather than
 FITPACK's sum of squared residuals, which cannot bound a distance). The least squares are
-assembled from scipy's B-spline design matrix (:meth:`scipy.interpolate.BSpline.design_matrix`)
-and solved with scipy's sparse LU; the end conditions are imposed by fixing the clamped end
-coefficients (see :func:`smooth_chain`), which are eliminated from the system.
+assembled from the B-spline design matrix and solved with scipy's sparse LU; the end
+conditions are imposed by fixing the clamped end coefficients (see :func:`smooth_chain`),
+which are eliminated from the system.
+
+:func:`smooth_chains` fits all chains of a program at once: every step (least squares, the
+deviation and coverage measurements, the knot refinement) is one vectorised computation over
+the chains still being refined, on the flat arrays of :mod:`feedopt.geometry.bsplines` (one
+block-diagonal sparse system for all of them), so a raster of a thousand chains costs about
+what one chain of the same total size does. :func:`smooth_chain` is the one-chain case.
 
 :class:`SplineEvaluator` evaluates such curves by arc length (thesis Eq. 3.23) through a
 per-chain s(u) table (Gauss-Legendre on every half knot span) inverted by a cubic Hermite guess
-and safeguarded Newton steps to 1e-12 of the length, with the chain rule of
-:func:`~feedopt.geometry.arclength.arc_length_derivatives`. Importing this module registers
-the segment kind ``"spline"`` (:data:`SPLINE`).
+and safeguarded Newton steps to 1e-12 of the length, all chains of a path in one call, with
+the chain rule of :func:`~feedopt.geometry.arclength.arc_length_derivatives`. Importing this
+module registers the segment kind ``"spline"`` (:data:`SPLINE`).
 """
 
 from __future__ import annotations
@@ -33,11 +39,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import ArrayLike
-from scipy.interpolate import BSpline
 from scipy.sparse.linalg import splu
 
 from feedopt.errors import InputError
 from feedopt.geometry.arclength import arc_length_derivatives
+from feedopt.geometry.bsplines import (
+    ArcTable,
+    Inverter,
+    SplineBatch,
+    arc_length,
+    arc_table,
+    segment_of,
+    shifted_keys,
+)
 from feedopt.geometry.registry import SegmentKind, register_segment_kind
 from feedopt.units import MM_PER_M
 
@@ -56,9 +70,6 @@ RIDGE = 1e-10  # relative weight of a second-difference penalty (only guards emp
 SAMPLES_PER_INTERVAL = 2  # deviation samples per data interval (before refinement) ...
 SAMPLES_PER_SPAN = 32  # ... and at least this many per knot span
 TABLE_SPLIT = 2  # arc-length table nodes per knot span
-_GL_TABLE = np.polynomial.legendre.leggauss(8)
-_GL_NEWTON = np.polynomial.legendre.leggauss(6)
-_MAX_NEWTON = 60
 _PROJECTION_STEPS = 3
 _CHUNK = 4096
 _CROSSING_STEPS = 3
@@ -90,18 +101,81 @@ class SmoothedChain:
     coverage: float
 
 
-# --- fitting ----------------------------------------------------------------------------------
+def _ramp(counts: np.ndarray) -> np.ndarray:
+    """0 .. counts[0]-1, 0 .. counts[1]-1, ... (one run per entry)."""
+    counts = np.asarray(counts, dtype=np.intp)
+    return np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _group_quantile(values: np.ndarray, owner: np.ndarray, m: int, q: float) -> np.ndarray:
+    """Per owner 0..m-1 the ``q`` quantile of its values (numpy's linear interpolation)."""
+    order = np.lexsort((values, owner))
+    v = values[order]
+    count = np.bincount(owner, minlength=m)
+    start = np.cumsum(count) - count
+    pos = (count - 1) * q
+    lo = np.floor(pos).astype(np.intp)
+    hi = np.minimum(lo + 1, count - 1)
+    return v[start + lo] + (pos - lo) * (v[start + hi] - v[start + lo])
+
+
+# --- the chains' polylines ------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class _Polyline:
-    points: np.ndarray  # (k+1, 3)
-    u: np.ndarray  # (k+1,) chord length at the vertices [m]
-    vec: np.ndarray  # (k, 3) move vectors
-    length2: np.ndarray  # (k,) squared move lengths (guarded > 0)
-    moves: np.ndarray  # (7, k) start point, move vector, squared length
-    bisector: np.ndarray  # (k-1, 3) sum of the unit directions either side of each vertex
-    window: int  # moves either side searched for the nearest polyline point
+class _Polys:
+    """The polylines of ``m`` chains in flat arrays: chain c's points at
+    ``points[pstart[c]:pstart[c+1]]``, its moves at ``[mstart[c]:mstart[c+1]]`` (the move
+    starting at point p of chain c is move p - c)."""
+
+    points: np.ndarray  # (P, 3)
+    pstart: np.ndarray  # (m+1,)
+    u: np.ndarray  # (P,) chord length from the chain's start [m]
+    vec: np.ndarray  # (M, 3) move vectors
+    length2: np.ndarray  # (M,) squared move lengths (guarded > 0)
+    moves: np.ndarray  # (7, M) start point, move vector, squared length
+    mstart: np.ndarray  # (m+1,)
+    owner_m: np.ndarray  # (M,) chain of each move
+    window: np.ndarray  # (m,) moves either side searched for the nearest polyline point
+    tol: np.ndarray  # (m,)
+    t_start: np.ndarray  # (m, 3) unit start tangent, NaN where none is imposed
+    t_end: np.ndarray  # (m, 3)
+    u_shift: tuple[np.ndarray, np.ndarray]  # for segment_of on u
+
+    def __len__(self) -> int:
+        return self.pstart.size - 1
+
+
+def _polys(pts: Sequence[np.ndarray], tol: np.ndarray, t_start: np.ndarray,
+           t_end: np.ndarray) -> _Polys:
+    m = len(pts)
+    npts = np.array([len(p) for p in pts])
+    pstart = np.concatenate([[0], np.cumsum(npts)])
+    mstart = pstart - np.arange(m + 1)
+    points = np.concatenate(pts)
+    owner_m = np.repeat(np.arange(m), npts - 1)
+    first = np.ones(points.shape[0], dtype=bool)
+    first[pstart[:-1]] = False
+    vec = (points[1:] - points[:-1])[first[1:]]
+    length = np.linalg.norm(vec, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(length)])
+    u = np.repeat(-cum[mstart[:-1]], npts) + np.insert(cum, mstart[1:-1], cum[mstart[1:-1]])
+    moving = length > 1e-12
+    short = _group_quantile(length[moving], owner_m[moving], m, 0.05)
+    window = np.clip(np.ceil(3.0 * tol / short), 1, 12).astype(np.intp)
+    length2 = np.maximum(length * length, 1e-300)
+    return _Polys(points=points, pstart=pstart, u=u, vec=vec, length2=length2,
+                  moves=np.vstack([points[np.arange(vec.shape[0]) + owner_m].T, vec.T,
+                                   length2]),
+                  mstart=mstart, owner_m=owner_m, window=window, tol=tol,
+                  t_start=t_start, t_end=t_end, u_shift=shifted_keys(u, pstart))
+
+
+def _unit(poly: _Polys) -> np.ndarray:
+    return poly.vec / np.maximum(np.sqrt(poly.length2), 1e-300)[:, None]
+
+
+# --- public ---------------------------------------------------------------------------------
 
 
 def smooth_chain(points: ArrayLike, tolerance: float, *,
@@ -164,25 +238,34 @@ def smooth_chain(points: ArrayLike, tolerance: float, *,
         length, and a chain the spline cannot follow within the tolerance (a sharp corner:
         split the chain there).
     """
-    pts, tol, t_start, t_end = _validate(points, tolerance, start_tangent, end_tangent)
-    poly = _polyline(pts, tol)
-    knots = _initial_knots(poly)
-    sub = _initial_subdivision(poly)
-    target = TARGET * tol
-    for _ in range(MAX_ITERATIONS):
-        u_data, y_data, w_data = _data(poly, sub)
-        spline = _fit(u_data, y_data, w_data, knots, pts[0], pts[-1], t_start, t_end)
-        dev_u, dev = _deviation(spline, poly, u_data)
-        cov_u, cov = _coverage(spline, poly)
-        bad, parts = _bad_spans(knots, dev_u, dev, cov_u, cov, target)
-        if not bad.size:
-            break
-        knots, sub = _refine(knots, bad, parts, poly, sub)
-        if sub.max() > MAX_DATA_PER_MOVE:
-            _refuse(poly, dev_u, dev, cov, tol)
-    else:
-        _refuse(poly, dev_u, dev, cov, tol)
-    return _result(spline, poly, dev, cov, cov_u)
+    return smooth_chains([points], [tolerance], start_tangents=[start_tangent],
+                         end_tangents=[end_tangent])[0]
+
+
+def smooth_chains(chains: Sequence[ArrayLike], tolerances: ArrayLike, *,
+                  start_tangents: Sequence[ArrayLike | None] | None = None,
+                  end_tangents: Sequence[ArrayLike | None] | None = None
+                  ) -> list[SmoothedChain]:
+    """:func:`smooth_chain` of every chain (each with its own tolerance and optional end
+    tangents), all fitted together; the same curves as one call per chain. A chain that
+    cannot be smoothed raises the InputError of :func:`smooth_chain` (the first such chain)."""
+    m = len(chains)
+    tols = np.broadcast_to(np.asarray(tolerances, dtype=object), (m,))
+    starts = start_tangents if start_tangents is not None else [None] * m
+    ends = end_tangents if end_tangents is not None else [None] * m
+    checked = [_validate(p, t, a, b) for p, t, a, b in zip(chains, tols, starts, ends,
+                                                            strict=True)]
+    if not checked:
+        return []
+    pts = [c[0] for c in checked]
+    nan = np.full(3, np.nan)
+    poly = _polys(pts, np.array([c[1] for c in checked]),
+                  np.array([nan if c[2] is None else c[2] for c in checked]),
+                  np.array([nan if c[3] is None else c[3] for c in checked]))
+    return _smooth(poly)
+
+
+# --- validation -----------------------------------------------------------------------------
 
 
 def _validate(points, tolerance, start_tangent, end_tangent):
@@ -237,95 +320,182 @@ def _tangent(t, move_dir: np.ndarray, which: str) -> np.ndarray | None:
     return v
 
 
-def _polyline(pts: np.ndarray, tol: float) -> _Polyline:
-    vec = np.diff(pts, axis=0)
-    length = np.linalg.norm(vec, axis=1)
-    u = np.concatenate([[0.0], np.cumsum(length)])
-    short = np.percentile(length[length > 1e-12], 5)
-    window = int(np.clip(np.ceil(3.0 * tol / short), 1, 12))
-    length2 = np.maximum(length * length, 1e-300)
-    unit = vec / np.maximum(length, 1e-300)[:, None]
-    return _Polyline(points=pts, u=u, vec=vec, length2=length2,
-                     moves=np.vstack([pts[:-1].T, vec.T, length2]),
-                     bisector=unit[:-1] + unit[1:], window=window)
+# --- fitting: the chains still being refined, all at once -------------------------------------
 
 
-def _initial_knots(poly: _Polyline) -> np.ndarray:
+@dataclass(frozen=True)
+class _Knots:
+    """Distinct knots (both ends included) of some chains, flat: chain a's at
+    ``values[start[a]:start[a+1]]``; ``chain`` (a,) the global index of each."""
+
+    values: np.ndarray
+    start: np.ndarray
+    chain: np.ndarray
+
+    @property
+    def owner(self) -> np.ndarray:
+        return np.repeat(np.arange(self.chain.size), np.diff(self.start))
+
+    def spans(self) -> tuple[np.ndarray, np.ndarray]:
+        """(span lengths, owner) of all knot spans, flat (chain a's spans at
+        ``[start[a] - a : start[a+1] - a - 1]``)."""
+        own = self.owner
+        keep = np.ones(self.values.size, dtype=bool)
+        keep[self.start[1:] - 1] = False
+        return (np.diff(self.values, append=self.values[-1:])[keep], own[keep])
+
+    def span_of(self, a: np.ndarray, x: np.ndarray, left: bool = False) -> np.ndarray:
+        """Flat span index of parameter ``x`` in chain ``a`` (``left``: a knot belongs to the
+        span before it)."""
+        g = segment_of(self.values, self.start, a, x)
+        if left:
+            g = np.where((x <= self.values[g]) & (g > self.start[a]), g - 1, g)
+        return g - a
+
+    def batch(self, coef: np.ndarray | None = None) -> SplineBatch:
+        """The clamped quintics on these knots (coefficients ``coef`` or zeros)."""
+        reps = np.ones(self.values.size, dtype=np.intp)
+        reps[self.start[:-1]] = DEGREE + 1
+        reps[self.start[1:] - 1] = DEGREE + 1
+        full = np.repeat(self.values, reps)
+        n_dist = np.diff(self.start)
+        fstart = np.concatenate([[0], np.cumsum(n_dist + 2 * DEGREE)])
+        cstart = np.concatenate([[0], np.cumsum(n_dist + DEGREE - 1)])
+        c = np.zeros((cstart[-1], 3)) if coef is None else coef
+        return SplineBatch(DEGREE, full, fstart, c, cstart)
+
+
+def _initial_knots(poly: _Polys) -> _Knots:
     """Distinct knots (including both ends): every ``INITIAL_SPAN_MOVES``-th vertex."""
-    k = len(poly.u) - 1
-    n_span = max(1, int(round(k / INITIAL_SPAN_MOVES)))
-    inner = poly.u[np.round(np.linspace(0, k, n_span + 1)[1:-1]).astype(int)]
-    return np.unique(np.concatenate([[0.0], inner, [poly.u[-1]]]))
+    m = len(poly)
+    k = np.diff(poly.mstart)
+    n_span = np.maximum(1, np.round(k / INITIAL_SPAN_MOVES).astype(np.intp))
+    j = _ramp(n_span - 1) + 1
+    own = np.repeat(np.arange(m), n_span - 1)
+    vertex = np.round(k[own] * j / n_span[own]).astype(np.intp)
+    inner = poly.u[poly.pstart[own] + vertex]
+    ends = np.concatenate([np.zeros(m), poly.u[poly.pstart[1:] - 1]])
+    return _dedupe(np.concatenate([ends, inner]),
+                   np.concatenate([np.arange(m), np.arange(m), own]), np.arange(m))
 
 
-def _initial_subdivision(poly: _Polyline) -> np.ndarray:
+def _dedupe(values: np.ndarray, owner: np.ndarray, chains: np.ndarray) -> _Knots:
+    """Knots of owners 0..len(chains)-1 sorted and made distinct per owner."""
+    order = np.lexsort((values, owner))
+    v, o = values[order], owner[order]
+    keep = np.ones(v.size, dtype=bool)
+    keep[1:] = (o[1:] != o[:-1]) | (v[1:] != v[:-1])
+    v, o = v[keep], o[keep]
+    start = np.concatenate([[0], np.cumsum(np.bincount(o, minlength=chains.size))])
+    return _Knots(v, start, chains)
+
+
+def _initial_subdivision(poly: _Polys) -> np.ndarray:
     """Data points per move: at least 2 (vertex and midpoint), more on moves much longer than
     the typical one."""
-    length = np.diff(poly.u)
-    typical = np.median(length[length > 1e-12])
-    return np.maximum(2, np.ceil(length / (2.0 * typical))).astype(np.intp)
+    length = np.sqrt(poly.length2)
+    moving = length > 1e-12
+    typical = _group_quantile(length[moving], poly.owner_m[moving], len(poly), 0.5)
+    return np.maximum(2, np.ceil(length / (2.0 * typical[poly.owner_m]))).astype(np.intp)
 
 
-def _data(poly: _Polyline, sub: np.ndarray):
-    """Polyline samples: vertices plus ``sub - 1`` equally spaced interior points per move;
-    parameters, positions and trapezoid weights."""
-    k = len(sub)
-    move = np.repeat(np.arange(k), sub)
-    frac = (np.arange(move.size) - np.repeat(np.cumsum(sub) - sub, sub)) / sub[move]
-    u = np.concatenate([poly.u[move] + frac * (poly.u[move + 1] - poly.u[move]), poly.u[-1:]])
-    y = np.concatenate([poly.points[move] + frac[:, None] * poly.vec[move], poly.points[-1:]])
-    du = np.diff(u)
+@dataclass(frozen=True)
+class _Data:
+    """Polyline samples of the active chains (a = index among them), chain by chain."""
+
+    owner: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+
+
+def _local(chains: np.ndarray, m: int) -> np.ndarray:
+    """Global chain -> index among ``chains`` (-1 for the others)."""
+    out = np.full(m, -1, dtype=np.intp)
+    out[chains] = np.arange(chains.size)
+    return out
+
+
+def _data(poly: _Polys, chains: np.ndarray, sub: np.ndarray) -> _Data:
+    """Vertices plus ``sub - 1`` equally spaced interior points per move of ``chains``;
+    parameters, positions and trapezoid weights (mean 1 per chain)."""
+    local = _local(chains, len(poly))
+    mv = np.flatnonzero(local[poly.owner_m] >= 0)
+    cnt = sub[mv]
+    move = np.repeat(mv, cnt)
+    frac = _ramp(cnt) / sub[move]
+    p = move + poly.owner_m[move]
+    last = poly.pstart[chains + 1] - 1
+    u = np.concatenate([poly.u[p] + frac * (poly.u[p + 1] - poly.u[p]), poly.u[last]])
+    y = np.concatenate([poly.points[p] + frac[:, None] * poly.vec[move], poly.points[last]])
+    owner = np.concatenate([local[poly.owner_m[move]], np.arange(chains.size)])
+    order = np.argsort(owner, kind="stable")
+    u, y, owner = u[order], y[order], owner[order]
+    du = np.where(owner[1:] == owner[:-1], np.diff(u), 0.0)
     w = np.zeros(u.size)
     w[:-1] += 0.5 * du
     w[1:] += 0.5 * du
-    w /= w.mean()
-    return u, y, w
+    mean = np.bincount(owner, w) / np.bincount(owner)
+    return _Data(owner, u, y, w / mean[owner])
 
 
-def _full_knots(knots: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.repeat(knots[0], DEGREE), knots, np.repeat(knots[-1], DEGREE)])
+def _fit(poly: _Polys, knots: _Knots, data: _Data) -> SplineBatch:
+    """Weighted least-squares quintics with the end coefficients fixed (see smooth_chain),
+    one block-diagonal system for all chains."""
+    batch = knots.batch()
+    cstart, fstart = batch.coef_start, batch.knot_start
+    b = batch.design_matrix(data.owner, data.u)
+    normal = (b.T @ (sp.diags_array(data.w) @ b)).tocsr()
+    rhs = b.T @ (data.w[:, None] * data.y)
+    n_c = np.diff(cstart)
+    mean = np.add.reduceat(normal.diagonal(), cstart[:-1]) / n_c
+    rows = n_c - 2
+    base = np.repeat(cstart[:-1], rows) + _ramp(rows)
+    scale = np.repeat(np.sqrt(RIDGE * mean), rows)
+    r = np.arange(base.size)
+    diff2 = sp.csr_array((np.concatenate([scale, -2.0 * scale, scale]),
+                          (np.tile(r, 3), np.concatenate([base, base + 1, base + 2]))),
+                         shape=(base.size, cstart[-1]))
+    normal = (normal + diff2.T @ diff2).tocsr()
+    c = np.zeros((cstart[-1], 3))
+    fixed = np.zeros(cstart[-1], dtype=bool)
+    ch = knots.chain
+    first, last = poly.points[poly.pstart[ch]], poly.points[poly.pstart[ch + 1] - 1]
+    c[cstart[:-1]], c[cstart[1:] - 1] = first, last
+    fixed[cstart[:-1]] = fixed[cstart[1:] - 1] = True
+    t0, t1 = poly.t_start[ch], poly.t_end[ch]
+    has0, has1 = ~np.isnan(t0[:, 0]), ~np.isnan(t1[:, 0])
+    full = batch.knots
+    h0 = (full[fstart[:-1] + DEGREE + 1] - full[fstart[:-1] + 1]) / DEGREE
+    h1 = (full[fstart[1:] - 2] - full[fstart[1:] - DEGREE - 2]) / DEGREE
+    c[cstart[:-1][has0] + 1] = (first + h0[:, None] * t0)[has0]
+    c[cstart[1:][has1] - 2] = (last - h1[:, None] * t1)[has1]
+    fixed[cstart[:-1][has0] + 1] = True
+    fixed[cstart[1:][has1] - 2] = True
+    free, fix = np.flatnonzero(~fixed), np.flatnonzero(fixed)
+    block = normal[free]
+    rhs_free = rhs[free] - block[:, fix] @ c[fix]
+    c[free] = splu(block[:, free].tocsc()).solve(np.ascontiguousarray(rhs_free))
+    return SplineBatch(DEGREE, full, fstart, c, cstart)
 
 
-def _fit(u, y, w, knots, p_start, p_end, t_start, t_end) -> BSpline:
-    """Weighted least-squares quintic with the end coefficients fixed (see smooth_chain)."""
-    t = _full_knots(knots)
-    n = len(t) - DEGREE - 1
-    b = BSpline.design_matrix(u, t, DEGREE)
-    bw = sp.diags_array(w) @ b
-    normal = (b.T @ bw).tocsc()
-    rhs = b.T @ (w[:, None] * y)
-    diff2 = sp.diags_array([np.ones(n - 2), -2.0 * np.ones(n - 2), np.ones(n - 2)],
-                           offsets=[0, 1, 2], shape=(n - 2, n))
-    normal = normal + (RIDGE * normal.diagonal().mean()) * (diff2.T @ diff2).tocsc()
-    fixed = {0: p_start, n - 1: p_end}
-    if t_start is not None:
-        fixed[1] = p_start + (t[DEGREE + 1] - t[1]) / DEGREE * t_start
-    if t_end is not None:
-        fixed[n - 2] = p_end - (t[n + DEGREE - 1] - t[n - 1]) / DEGREE * t_end
-    fix = np.array(sorted(fixed))
-    free = np.setdiff1d(np.arange(n), fix)
-    c = np.empty((n, 3))
-    c[fix] = np.array([fixed[i] for i in fix])
-    normal = normal.tocsr()
-    rows = normal[free]
-    rhs_free = rhs[free] - rows[:, fix] @ c[fix]
-    c[free] = splu(rows[:, free].tocsc()).solve(np.ascontiguousarray(rhs_free))
-    return BSpline(t, c, DEGREE)
-
-
-def _window_distance(x: np.ndarray, u: np.ndarray, poly: _Polyline
+def _window_distance(poly: _Polys, chain: np.ndarray, x: np.ndarray, u: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Distance of points ``x`` (n, 3) at curve parameters ``u`` to the moves within
-    ``poly.window`` of the move holding ``u`` (an upper bound of the polyline distance), and
-    the index of the nearest of those moves."""
-    k = len(poly.vec)
-    i = np.clip(np.searchsorted(poly.u, u, side="right") - 1, 0, k - 1)
-    dist = np.empty(len(u))
-    move = np.empty(len(u), dtype=np.intp)
-    near = np.arange(-poly.window, poly.window + 1)
-    for lo in range(0, len(u), _CHUNK):  # chunks that stay in cache
+    """Distance of points ``x`` (n, 3) at parameters ``u`` of chains ``chain`` (global) to the
+    moves within the chain's ``window`` of the move holding ``u`` (an upper bound of the
+    polyline distance), and the index of the nearest of those moves (global)."""
+    n = len(u)
+    mv = segment_of(poly.u, poly.pstart, chain, u, poly.u_shift) - chain
+    win = poly.window[chain]
+    dist = np.empty(n)
+    move = np.empty(n, dtype=np.intp)
+    for lo in range(0, n, _CHUNK):  # chunks that stay in cache
         part = slice(lo, lo + _CHUNK)
-        idx = np.clip(i[part, None] + near, 0, k - 1)
+        w = int(win[part].max()) if win[part].size else 0
+        near = np.arange(-w, w + 1)
+        c = chain[part]
+        idx = np.clip(mv[part, None] + near, poly.mstart[c][:, None],
+                      poly.mstart[c + 1][:, None] - 1)
         ax, ay, az, vx, vy, vz, ll = poly.moves[:, idx]
         xp = x[part]
         rx, ry, rz = xp[:, 0, None] - ax, xp[:, 1, None] - ay, xp[:, 2, None] - az
@@ -335,6 +505,7 @@ def _window_distance(x: np.ndarray, u: np.ndarray, poly: _Polyline
         ry -= f * vy
         rz -= f * vz
         d2 = rx * rx + ry * ry + rz * rz
+        d2[np.abs(near)[None, :] > win[part, None]] = np.inf
         best = d2.argmin(axis=1)
         rows = np.arange(best.size)
         dist[part] = np.sqrt(d2[rows, best])
@@ -342,32 +513,68 @@ def _window_distance(x: np.ndarray, u: np.ndarray, poly: _Polyline
     return dist, move
 
 
-def _move_distance(x: np.ndarray, j: np.ndarray, poly: _Polyline) -> np.ndarray:
+def _move_distance(x: np.ndarray, j: np.ndarray, poly: _Polys) -> np.ndarray:
     """Distance of points ``x`` (n, 3) to moves ``j`` (n,)."""
-    rel = x - poly.points[j]
+    rel = x - poly.points[j + poly.owner_m[j]]
     vec = poly.vec[j]
     f = np.clip(np.einsum("ij,ij->i", rel, vec) / poly.length2[j], 0.0, 1.0)
     return np.linalg.norm(rel - f[:, None] * vec, axis=1)
 
 
-def _deviation(spline: BSpline, poly: _Polyline, u_data: np.ndarray):
+@dataclass(frozen=True)
+class _Measured:
+    """Parameters ``u`` of chains ``owner`` (index among the active ones) and a distance
+    measured there."""
+
+    owner: np.ndarray
+    u: np.ndarray
+    d: np.ndarray
+
+
+def _samples(knots: _Knots, data: _Data) -> tuple[np.ndarray, np.ndarray]:
+    """Deviation samples: the data parameters and more in between (>= 2 per data interval,
+    >= 32 per knot span), chain by chain: (owner, u)."""
+    own, u_d = data.owner, data.u
+    e = np.flatnonzero(own[1:] == own[:-1])
+    du = u_d[e + 1] - u_d[e]
+    g = knots.span_of(own[e], u_d[e] + 0.5 * du) + own[e]
+    span = knots.values[g + 1] - knots.values[g]
+    q = np.maximum(SAMPLES_PER_INTERVAL, np.ceil(SAMPLES_PER_SPAN * du / span)).astype(np.intp)
+    start = np.repeat(e, q)
+    frac = _ramp(q) / np.repeat(q, q)
+    ends = np.flatnonzero(np.append(own[1:] != own[:-1], True))
+    v = np.concatenate([u_d[start] + frac * np.repeat(du, q), u_d[ends]])
+    ow = np.concatenate([own[start], own[ends]])
+    order = np.argsort(ow, kind="stable")
+    return ow[order], v[order]
+
+
+def _deviation(poly: _Polys, knots: _Knots, spline: SplineBatch, data: _Data) -> _Measured:
     """Sampled curve -> polyline distance: parameters and distances, with every smooth local
     maximum refined by a parabola, plus the crossings of the vertices' bisector planes (where
     the distance has a kink, a maximum inside a corner) and the equal-distance points of
     other pairs of nearest moves (bisection)."""
-    du = np.diff(u_data)
-    knots = np.unique(spline.t)
-    span = np.diff(knots)[np.clip(np.searchsorted(knots, u_data[:-1] + 0.5 * du) - 1, 0,
-                                  len(knots) - 2)]
-    q = np.maximum(SAMPLES_PER_INTERVAL, np.ceil(SAMPLES_PER_SPAN * du / span)).astype(np.intp)
-    start = np.repeat(np.arange(du.size), q)
-    frac = (np.arange(start.size) - np.repeat(np.cumsum(q) - q, q)) / q[start]
-    v = np.concatenate([u_data[start] + frac * du[start], u_data[-1:]])
-    x = spline(v)
-    d, move = _window_distance(x, v, poly)
-    # parabola through every local maximum and its neighbours: its vertex
+    ow, v = _samples(knots, data)
+    ch = knots.chain
+    d, move = _window_distance(poly, ch[ow], spline.evaluate(ow, v)[0], v)
+    dmax = np.zeros(ch.size)
+    np.maximum.at(dmax, ow, d)
+    vr, own_r = _parabola_peaks(ow, v, d, dmax)
+    vc, own_c = _bisector_crossings(poly, knots, spline)
+    vb, own_b = _switches(poly, spline, ow, v, d, move, dmax)
+    extra = np.concatenate([vr, vc, vb])
+    own_x = np.concatenate([own_r, own_c, own_b])
+    dr, _ = _window_distance(poly, ch[own_x], spline.evaluate(own_x, extra)[0], extra)
+    return _Measured(np.concatenate([ow, own_x]), np.concatenate([v, extra]),
+                     np.concatenate([d, dr]))
+
+
+def _parabola_peaks(ow, v, d, dmax) -> tuple[np.ndarray, np.ndarray]:
+    """The vertex of the parabola through every local maximum (at least half the chain's
+    largest) and its neighbours in the same chain."""
     i = 1 + np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:])
-                           & (d[1:-1] >= 0.5 * d.max()))
+                           & (ow[:-2] == ow[1:-1]) & (ow[2:] == ow[1:-1])
+                           & (d[1:-1] >= 0.5 * dmax[ow[1:-1]]))
     h0, h2 = v[i - 1] - v[i], v[i + 1] - v[i]
     ok = (h0 < 0) & (h2 > 0)
     i, h0, h2 = i[ok], h0[ok], h2[ok]
@@ -376,242 +583,294 @@ def _deviation(spline: BSpline, poly: _Polyline, u_data: np.ndarray):
     conc = a < 0
     i, h0, h2, f0, a = i[conc], h0[conc], h2[conc], f0[conc], a[conc]
     b = f0 / h0 - a * h0
-    vr = v[i] + np.clip(-b / (2.0 * a), h0, h2)
-    # kinks: where the curve crosses a vertex's bisector plane (p - V).(a + b) = 0 (a, b the
-    # unit directions of the moves before and after V), the distances to the two moves are
-    # equal and their minimum has a kink (a maximum inside a corner): Newton from u(V)
-    nrm, u_v = poly.bisector, poly.u[1:-1]
-    vc = u_v.copy()
-    d1 = spline.derivative(1)
+    return v[i] + np.clip(-b / (2.0 * a), h0, h2), ow[i]
+
+
+def _bisector_crossings(poly: _Polys, knots: _Knots, spline: SplineBatch
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Where the curve crosses a vertex's bisector plane (p - V).(a + b) = 0 (a, b the unit
+    directions of the moves before and after V) the distances to the two moves are equal and
+    their minimum has a kink (a maximum inside a corner): Newton from u(V)."""
+    ch = knots.chain
+    inner = np.diff(poly.pstart)[ch] - 2
+    own = np.repeat(np.arange(ch.size), inner)
+    p = np.repeat(poly.pstart[ch] + 1, inner) + _ramp(inner)
+    mv = p - ch[own]
+    unit = _unit(poly)
+    nrm = unit[mv - 1] + unit[mv]
+    vc = poly.u[p].copy()
+    lo, hi = poly.u[p - 1], poly.u[p + 1]
     for _ in range(_CROSSING_STEPS):
-        h = np.einsum("ij,ij->i", spline(vc) - poly.points[1:-1], nrm)
-        hp = np.einsum("ij,ij->i", d1(vc), nrm)
+        ev = spline.evaluate(own, vc, 1)
+        h = np.einsum("ij,ij->i", ev[0] - poly.points[p], nrm)
+        hp = np.einsum("ij,ij->i", ev[1], nrm)
         with np.errstate(invalid="ignore", divide="ignore"):
             step = np.where(np.abs(hp) > 1e-3, h / hp, 0.0)
-        vc = np.clip(vc - step, poly.u[:-2], poly.u[2:])
-    # kinks between moves that are not neighbours (tolerance above the move lengths, noisy
-    # chains): bisection on the equal-distance point between the two samples
-    sw = np.flatnonzero((np.abs(move[1:] - move[:-1]) >= 2)
-                        & (np.maximum(d[1:], d[:-1]) >= 0.5 * d.max()))
-    ja, jb, lo, hi = move[sw], move[sw + 1], v[sw], v[sw + 1]
+        vc = np.clip(vc - step, lo, hi)
+    return vc, own
+
+
+def _switches(poly: _Polys, spline: SplineBatch, ow, v, d, move, dmax
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Kinks between moves that are not neighbours (tolerance above the move lengths, noisy
+    chains): bisection on the equal-distance point between two samples."""
+    sw = np.flatnonzero((ow[1:] == ow[:-1]) & (np.abs(move[1:] - move[:-1]) >= 2)
+                        & (np.maximum(d[1:], d[:-1]) >= 0.5 * dmax[ow[:-1]]))
+    ja, jb, lo, hi, own = move[sw], move[sw + 1], v[sw], v[sw + 1], ow[sw]
     for _ in range(_BISECTION_STEPS if sw.size else 0):
         mid = 0.5 * (lo + hi)
-        xm = spline(mid)
+        xm = spline.evaluate(own, mid)[0]
         near_a = _move_distance(xm, ja, poly) <= _move_distance(xm, jb, poly)
         lo, hi = np.where(near_a, mid, lo), np.where(near_a, hi, mid)
-    extra = np.concatenate([vr, vc, 0.5 * (lo + hi)])
-    dr, _ = _window_distance(spline(extra), extra, poly)
-    return np.concatenate([v, extra]), np.concatenate([d, dr])
+    return 0.5 * (lo + hi), own
 
 
-def _coverage(spline: BSpline, poly: _Polyline):
+def _coverage(poly: _Polys, knots: _Knots, spline: SplineBatch) -> _Measured:
     """Vertex -> curve: parameters of the projections and distances (upper bounds)."""
-    x, u0 = poly.points, poly.u
-    lo = np.concatenate([u0[:1], u0[:-1]])
-    hi = np.concatenate([u0[1:], u0[-1:]])
-    d1, d2 = spline.derivative(1), spline.derivative(2)
+    ch = knots.chain
+    cnt = np.diff(poly.pstart)[ch]
+    own = np.repeat(np.arange(ch.size), cnt)
+    p = np.repeat(poly.pstart[ch], cnt) + _ramp(cnt)
+    x, u0 = poly.points[p], poly.u[p]
+    first = np.zeros(p.size, dtype=bool)
+    first[np.cumsum(cnt) - cnt] = True
+    last = np.zeros(p.size, dtype=bool)
+    last[np.cumsum(cnt) - 1] = True
+    lo = np.where(first, u0, poly.u[np.maximum(p - 1, 0)])
+    hi = np.where(last, u0, poly.u[np.minimum(p + 1, poly.u.size - 1)])
     u = u0.copy()
     for _ in range(_PROJECTION_STEPS):
-        rel = spline(u) - x
-        g1 = d1(u)
-        g = np.einsum("ij,ij->i", rel, g1)
-        gp = np.einsum("ij,ij->i", g1, g1) + np.einsum("ij,ij->i", rel, d2(u))
-        gp = np.maximum(gp, 0.5 * np.einsum("ij,ij->i", g1, g1))
+        ev = spline.evaluate(own, u, 2)
+        rel = ev[0] - x
+        g = np.einsum("ij,ij->i", rel, ev[1])
+        g11 = np.einsum("ij,ij->i", ev[1], ev[1])
+        gp = np.maximum(g11 + np.einsum("ij,ij->i", rel, ev[2]), 0.5 * g11)
         u = np.clip(u - g / gp, lo, hi)
-    d_proj = np.linalg.norm(spline(u) - x, axis=1)
-    d_own = np.linalg.norm(spline(u0) - x, axis=1)
+    d_proj = np.linalg.norm(spline.evaluate(own, u)[0] - x, axis=1)
+    d_own = np.linalg.norm(spline.evaluate(own, u0)[0] - x, axis=1)
     better = d_proj <= d_own
-    return np.where(better, u, u0), np.where(better, d_proj, d_own)
+    return _Measured(own, np.where(better, u, u0), np.where(better, d_proj, d_own))
 
 
-def _bad_spans(knots, dev_u, dev, cov_u, cov, target) -> tuple[np.ndarray, np.ndarray]:
-    """The knot spans where deviation or coverage exceed ``target`` and into how many parts
-    to split each: 1.25 (error / target)^(1/6) (a quintic's error falls like h^6), 2 to 4."""
-    n_span = len(knots) - 1
-    err = np.zeros(n_span)
-    for q, val in ((dev_u, dev), (cov_u, cov)):
-        over = val > target
-        span = np.clip(np.searchsorted(knots, q[over], side="right") - 1, 0, n_span - 1)
-        np.maximum.at(err, span, val[over])
-    bad = np.flatnonzero(err > target)
-    parts = np.clip(np.ceil(1.25 * (err[bad] / target) ** (1.0 / 6.0)), 2, 4).astype(np.intp)
-    return bad, parts
+def _bad_spans(knots: _Knots, dev: _Measured, cov: _Measured, target: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The knot spans (flat) where deviation or coverage exceed ``target`` (per active chain),
+    into how many parts to split each: 1.25 (error / target)^(1/6) (a quintic's error falls
+    like h^6), 2 to 4; and the error per span."""
+    _, span_owner = knots.spans()
+    err = np.zeros(span_owner.size)
+    for m in (dev, cov):
+        over = m.d > target[m.owner]
+        np.maximum.at(err, knots.span_of(m.owner[over], m.u[over]), m.d[over])
+    bad = np.flatnonzero(err > target[span_owner])
+    ratio = err[bad] / target[span_owner[bad]]
+    parts = np.clip(np.ceil(1.25 * ratio ** (1.0 / 6.0)), 2, 4).astype(np.intp)
+    return bad, parts, span_owner
 
 
-def _refine(knots, bad, parts, poly: _Polyline, sub):
-    """Split the bad spans into ``parts`` equal pieces; sample the moves more densely where the
-    spans became shorter than 4 data intervals."""
+def _refine(poly: _Polys, knots: _Knots, bad: np.ndarray, parts: np.ndarray,
+            span_owner: np.ndarray, sub: np.ndarray) -> tuple[_Knots, np.ndarray]:
+    """Split the bad spans into ``parts`` equal pieces (the chains without one leave); sample
+    the moves more densely where the spans became shorter than 4 data intervals."""
+    own_b = span_owner[bad]
+    keep = np.unique(own_b)  # active chains that go on (index among the active ones)
     rep = np.repeat(np.arange(bad.size), parts - 1)
-    frac = (np.arange(rep.size) - np.repeat(np.cumsum(parts - 1) - (parts - 1), parts - 1)
-            + 1) / parts[rep]
-    lo, hi = knots[bad][rep], knots[bad + 1][rep]
-    knots = np.unique(np.concatenate([knots, lo + frac * (hi - lo)]))
-    span = np.diff(knots)
-    first = np.clip(np.searchsorted(knots, poly.u[:-1], side="right") - 1, 0, len(span) - 1)
-    last = np.clip(np.searchsorted(knots, poly.u[1:], side="left") - 1, 0, len(span) - 1)
-    last = np.maximum(last, first)
+    frac = (_ramp(parts - 1) + 1) / parts[rep]
+    g = bad + own_b  # flat knot index of each bad span's start
+    lo, hi = knots.values[g][rep], knots.values[g + 1][rep]
+    renum = np.full(knots.chain.size, -1, dtype=np.intp)
+    renum[keep] = np.arange(keep.size)
+    own_k = knots.owner
+    sel = renum[own_k] >= 0
+    new = _dedupe(np.concatenate([knots.values[sel], lo + frac * (hi - lo)]),
+                  np.concatenate([renum[own_k[sel]], renum[own_b[rep]]]), knots.chain[keep])
+    span, _ = new.spans()
+    local = _local(new.chain, len(poly))
+    mv = np.flatnonzero(local[poly.owner_m] >= 0)
+    a = local[poly.owner_m[mv]]
+    p = mv + poly.owner_m[mv]
+    first = new.span_of(a, poly.u[p])
+    last = np.maximum(new.span_of(a, poly.u[p + 1], left=True), first)
     shortest = np.minimum(np.minimum.reduceat(span, first), span[last])
-    need = np.ceil(4.0 * np.diff(poly.u) / shortest).astype(np.intp)
-    return knots, np.maximum(sub, need)
+    need = np.ceil(4.0 * (poly.u[p + 1] - poly.u[p]) / shortest).astype(np.intp)
+    sub = sub.copy()
+    sub[mv] = np.maximum(sub[mv], need)
+    return new, sub
 
 
-def _refuse(poly: _Polyline, dev_u, dev, cov, tol):
-    i_dev = int(np.argmax(dev))
-    i = int(np.clip(np.searchsorted(poly.u, dev_u[i_dev]), 0, len(poly.u) - 1))
-    if cov.max() > dev.max():
-        i = int(np.argmax(cov))
-    p = poly.points[i] * MM_PER_M
+@dataclass
+class _Done:
+    """Per chain (global index) its final spline and measurements, as they finish."""
+
+    knots: list
+    coef: list
+    dev: np.ndarray
+    cov: np.ndarray
+    dev_at: np.ndarray  # parameter of the largest deviation
+    cov_at: np.ndarray  # vertex (index in the chain) of the largest coverage
+    cov_u: list
+    failed: dict
+
+
+def _smooth(poly: _Polys) -> list[SmoothedChain]:
+    m = len(poly)
+    knots = _initial_knots(poly)
+    sub = _initial_subdivision(poly)
+    done = _Done([None] * m, [None] * m, np.zeros(m), np.zeros(m), np.zeros(m),
+                 np.zeros(m, dtype=np.intp), [None] * m, {})
+    target_all = TARGET * poly.tol
+    for _ in range(MAX_ITERATIONS):
+        data = _data(poly, knots.chain, sub)
+        spline = _fit(poly, knots, data)
+        dev = _deviation(poly, knots, spline, data)
+        cov = _coverage(poly, knots, spline)
+        bad, parts, span_owner = _bad_spans(knots, dev, cov, target_all[knots.chain])
+        _store(done, knots, spline, dev, cov)
+        if not bad.size:
+            break
+        knots, sub = _refine(poly, knots, bad, parts, span_owner, sub)
+        over = np.zeros(m)
+        np.maximum.at(over, poly.owner_m, sub)
+        for c in knots.chain[over[knots.chain] > MAX_DATA_PER_MOVE].tolist():
+            done.failed[c] = True
+        knots = _without(knots, over[knots.chain] <= MAX_DATA_PER_MOVE)
+        if not knots.chain.size:
+            break
+    else:
+        for c in knots.chain.tolist():
+            done.failed[c] = True
+    if done.failed:
+        _refuse(poly, min(done.failed), done)
+    return _results(poly, done)
+
+
+def _without(knots: _Knots, keep: np.ndarray) -> _Knots:
+    """The knots of the chains ``keep`` (bool per chain) only."""
+    sel = keep[knots.owner]
+    count = np.diff(knots.start)[keep]
+    return _Knots(knots.values[sel], np.concatenate([[0], np.cumsum(count)]),
+                  knots.chain[keep])
+
+
+def _store(done: _Done, knots: _Knots, spline: SplineBatch, dev: _Measured,
+           cov: _Measured) -> None:
+    """Record every active chain's current spline and measurements (the last stored is the
+    final one)."""
+    ch = knots.chain
+    n = ch.size
+    dmax = np.full(n, -np.inf)
+    np.maximum.at(dmax, dev.owner, dev.d)
+    at = np.zeros(n)
+    is_max = dev.d == dmax[dev.owner]
+    at[dev.owner[is_max]] = dev.u[is_max]
+    cmax = np.zeros(n)
+    np.maximum.at(cmax, cov.owner, cov.d)
+    count = np.bincount(cov.owner, minlength=n)
+    vertex = np.arange(cov.d.size) - np.repeat(np.cumsum(count) - count, count)
+    cov_at = np.zeros(n, dtype=np.intp)
+    is_cmax = cov.d == cmax[cov.owner]
+    cov_at[cov.owner[is_cmax]] = vertex[is_cmax]
+    done.dev[ch], done.cov[ch], done.dev_at[ch], done.cov_at[ch] = dmax, cmax, at, cov_at
+    ks, cs = spline.knot_start, spline.coef_start
+    cov_split = np.split(cov.u, np.cumsum(count)[:-1])
+    for a, c in enumerate(ch.tolist()):  # bookkeeping: slices, no computation
+        done.knots[c] = spline.knots[ks[a]:ks[a + 1]]
+        done.coef[c] = spline.coef[cs[a]:cs[a + 1]]
+        done.cov_u[c] = cov_split[a]
+
+
+def _refuse(poly: _Polys, c: int, done: _Done):
+    pts = poly.points[poly.pstart[c]:poly.pstart[c + 1]]
+    u = poly.u[poly.pstart[c]:poly.pstart[c + 1]]
+    i = int(np.clip(np.searchsorted(u, done.dev_at[c]), 0, len(u) - 1))
+    worst = max(done.dev[c], done.cov[c])
+    if done.cov[c] > done.dev[c]:
+        i = int(done.cov_at[c])
+    p = pts[i] * MM_PER_M
     raise InputError(
-        f"cannot smooth the chain of {len(poly.vec)} moves within the tolerance "
-        f"{tol * MM_PER_M:g} mm: near point {i} ({p[0]:.6g}, {p[1]:.6g}, {p[2]:.6g}) mm the "
-        f"spline stays {max(dev.max(), cov.max()) * MM_PER_M:.3g} mm away (a sharp corner or "
-        "a tangent the chain does not follow); split the chain there or raise the tolerance")
+        f"cannot smooth the chain of {len(pts) - 1} moves within the tolerance "
+        f"{poly.tol[c] * MM_PER_M:g} mm: near point {i} ({p[0]:.6g}, {p[1]:.6g}, {p[2]:.6g}) "
+        f"mm the spline stays {worst * MM_PER_M:.3g} mm away (a sharp corner or a tangent the "
+        "chain does not follow); split the chain there or raise the tolerance")
 
 
-def _result(spline: BSpline, poly: _Polyline, dev, cov, cov_u) -> SmoothedChain:
-    table = _arc_length_table(spline)
-    params = {"knots": spline.t.copy(), "coefficients": np.asarray(spline.c).copy(),
-              "degree": np.array(DEGREE), **table}
-    length = float(table["s_nodes"][-1])
-    chain = _Chain(params)
-    node_s = np.maximum.accumulate(np.clip(chain.arc_length(cov_u), 0.0, length))
-    node_s[0], node_s[-1] = 0.0, length
-    return SmoothedChain(params=params, length=length, node_s=node_s,
-                         deviation=float(dev.max()), coverage=float(cov.max()))
-
-
-def _arc_length_table(spline: BSpline) -> dict[str, np.ndarray]:
-    """s(u) at ``TABLE_SPLIT`` nodes per knot span (Gauss-Legendre, 8 points each)."""
-    knots = np.unique(spline.t)
-    frac = np.arange(TABLE_SPLIT) / TABLE_SPLIT
-    t_nodes = np.concatenate([(knots[:-1, None] + np.diff(knots)[:, None] * frac).ravel(),
-                              knots[-1:]])
-    d1 = spline.derivative(1)
-    x, w = _GL_TABLE
-    h = np.diff(t_nodes)
-    tq = t_nodes[:-1, None] + 0.5 * h[:, None] * (x[None, :] + 1.0)
-    inc = 0.5 * h * (np.linalg.norm(d1(tq), axis=-1) @ w)
-    s_nodes = np.concatenate([[0.0], np.cumsum(inc)])
-    return {"t_nodes": t_nodes, "s_nodes": s_nodes,
-            "sigma_nodes": np.linalg.norm(d1(t_nodes), axis=-1)}
+def _results(poly: _Polys, done: _Done) -> list[SmoothedChain]:
+    m = len(poly)
+    batch = SplineBatch.from_lists(DEGREE, done.knots, done.coef)
+    table = arc_table(batch, TABLE_SPLIT)
+    length = table.length
+    cnt = np.diff(poly.pstart)
+    own = np.repeat(np.arange(m), cnt)
+    s = np.clip(arc_length(batch, table, own, np.concatenate(done.cov_u)), 0.0, length[own])
+    off = np.concatenate([[0.0], np.cumsum(length + 1.0)])[:-1]
+    s = np.maximum.accumulate(s + off[own]) - off[own]
+    s[poly.pstart[:-1]] = 0.0
+    s[poly.pstart[1:] - 1] = length
+    out = []
+    for c in range(m):  # one params dict per chain (a Segment's params)
+        params = {"knots": done.knots[c].copy(), "coefficients": done.coef[c].copy(),
+                  "degree": np.array(DEGREE), **table.curve(c)}
+        out.append(SmoothedChain(params=params, length=float(length[c]),
+                                 node_s=s[poly.pstart[c]:poly.pstart[c + 1]],
+                                 deviation=float(done.dev[c]), coverage=float(done.cov[c])))
+    return out
 
 
 # --- evaluation by arc length -------------------------------------------------------------------
 
 
+def _batch_of(params: Sequence[dict]) -> tuple[SplineBatch, ArcTable]:
+    degrees = {int(p["degree"]) for p in params}
+    if len(degrees) != 1:
+        raise ValueError(f"spline segments of one path must share a degree, got {degrees}")
+    batch = SplineBatch.from_lists(degrees.pop(), [np.asarray(p["knots"], float) for p in params],
+                                   [np.asarray(p["coefficients"], float) for p in params])
+    sizes = [len(p["t_nodes"]) for p in params]
+    table = ArcTable(np.concatenate([p["t_nodes"] for p in params]).astype(float),
+                     np.concatenate([p["s_nodes"] for p in params]).astype(float),
+                     np.concatenate([p["sigma_nodes"] for p in params]).astype(float),
+                     np.concatenate([[0], np.cumsum(sizes)]))
+    return batch, table
+
+
 class _Chain:
-    """One smoothed chain: p(u) and its u-derivatives, s(u) and its inverse u(s)."""
+    """One smoothed chain: p(u), s(u) and its inverse u(s) (a batch of one)."""
 
     def __init__(self, params: dict[str, np.ndarray]):
-        k = int(params["degree"])
-        self.p = BSpline(np.asarray(params["knots"], float),
-                         np.asarray(params["coefficients"], float), k)
-        self.d1 = self.p.derivative(1)
-        self.d2 = self.p.derivative(2)
-        self.d3 = self.p.derivative(3)
-        self.t_nodes = np.asarray(params["t_nodes"], float)
-        self.s_nodes = np.asarray(params["s_nodes"], float)
-        self.sigma_nodes = np.asarray(params["sigma_nodes"], float)
-        self.length = float(self.s_nodes[-1])
-        self.tol = 1e-12 * self.length + 1e-300
-        # Newton from residual r leaves ~ |sigma'| r^2 / (2 sigma^2) <= bound r^2 (|sigma'| <=
-        # |p''|; factor 4 for the p'' between the nodes): below tol no check is needed
-        mid = 0.5 * (self.t_nodes[:-1] + self.t_nodes[1:])
-        p2 = np.linalg.norm(self.d2(np.concatenate([self.t_nodes, mid])), axis=-1).max()
-        self.quad_bound = 4.0 * 0.5 * p2 / self.sigma_nodes.min() ** 2
-
-    def speed(self, t: np.ndarray) -> np.ndarray:
-        d = self.d1(t)
-        return np.sqrt(np.einsum("...j,...j->...", d, d))
+        self.batch, self.table = _batch_of([params])
+        self.inverter = Inverter.of(self.batch, self.table)
+        self.length = float(self.table.length[0])
 
     def arc_length(self, t: np.ndarray) -> np.ndarray:
         """s(u): table node below plus Gauss-Legendre (8 points)."""
-        t = np.clip(np.asarray(t, float), self.t_nodes[0], self.t_nodes[-1])
-        k = np.clip(np.searchsorted(self.t_nodes, t, side="right") - 1, 0,
-                    len(self.t_nodes) - 2)
-        x, w = _GL_TABLE
-        half = 0.5 * (t - self.t_nodes[k])
-        tq = self.t_nodes[k][:, None] + half[:, None] * (x + 1.0)
-        return self.s_nodes[k] + half * (self.speed(tq) @ w)
+        t = np.atleast_1d(np.asarray(t, float))
+        return arc_length(self.batch, self.table, np.zeros(t.size, dtype=np.intp), t)
 
     def invert(self, s: np.ndarray) -> np.ndarray:
-        """u(s): cubic Hermite guess on the table interval, then safeguarded Newton steps on
-        s(u) - s = 0 until |s(u) - s| <= 1e-12 of the length (as in
-        :func:`feedopt.geometry.arclength.invert`)."""
-        s = np.clip(s, 0.0, self.length)
-        n_int = len(self.t_nodes) - 1
-        k = np.clip(np.searchsorted(self.s_nodes, s, side="right") - 1, 0, n_int - 1)
-        t0, t1 = self.t_nodes[k], self.t_nodes[k + 1]
-        s0, s1 = self.s_nodes[k], self.s_nodes[k + 1]
-        ds = s1 - s0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            tau = np.where(ds > 0, (s - s0) / ds, 0.0)
-        m0, m1 = ds / self.sigma_nodes[k], ds / self.sigma_nodes[k + 1]
-        tau2, tau3 = tau * tau, tau * tau * tau
-        t = (t0 * (2 * tau3 - 3 * tau2 + 1) + m0 * (tau3 - 2 * tau2 + tau)
-             + t1 * (-2 * tau3 + 3 * tau2) + m1 * (tau3 - tau2))
-        t = np.clip(t, t0, t1)
-        lo, hi = t0.copy(), t1.copy()
-        x, w = _GL_NEWTON
-        todo = np.arange(s.size)
-        stepped = np.zeros(s.size, dtype=bool)
-        for _ in range(_MAX_NEWTON):
-            ta, t0a = t[todo], t0[todo]
-            half = 0.5 * (ta - t0a)
-            tq = np.empty((ta.size, x.size + 1))
-            tq[:, :-1] = t0a[:, None] + half[:, None] * (x + 1.0)
-            tq[:, -1] = ta
-            sig = self.speed(tq)
-            res = s0[todo] + half * (sig[:, :-1] @ w) - s[todo]
-            # converged, or one Newton step from a residual small enough to need no check
-            done = np.abs(res) <= self.tol
-            quick = ~done & ~stepped[todo] & (self.quad_bound * res * res <= 0.01 * self.tol)
-            sig_t = sig[:, -1]
-            step = ta - res / sig_t
-            t[todo[quick]] = np.clip(step[quick], lo[todo[quick]], hi[todo[quick]])
-            keep = ~done & ~quick
-            todo, ta, res, step = todo[keep], ta[keep], res[keep], step[keep]
-            if not todo.size:
-                break
-            stepped[todo] = True
-            lo[todo] = np.where(res < 0, ta, lo[todo])
-            hi[todo] = np.where(res > 0, ta, hi[todo])
-            inside = (step >= lo[todo]) & (step <= hi[todo])
-            t[todo] = np.where(inside, step, 0.5 * (lo[todo] + hi[todo]))
-        return t
-
-    def eval(self, sl: np.ndarray):
-        t = self.invert(sl)
-        return (self.p(t), *arc_length_derivatives(self.d1(t), self.d2(t), self.d3(t)))
+        """u(s) to 1e-12 of the length (:meth:`~feedopt.geometry.bsplines.Inverter.invert`)."""
+        s = np.atleast_1d(np.asarray(s, float))
+        return self.inverter.invert(np.zeros(s.size, dtype=np.intp), s)
 
 
 class SplineEvaluator:
     """Evaluator of ``"spline"`` segments (:func:`smooth_chain`'s ``params``) by arc length.
 
-    Each segment is its own chain (knots, coefficients, arc-length table); ``eval(j, sl)``
-    groups the samples by chain and returns position, unit tangent dp/ds, curvature vector
-    d2p/ds2 and d3p/ds3 at local arc lengths ``sl`` in [0, length of chain j], from the
-    B-spline's u-derivatives 1..3 and the chain rule
-    (:func:`~feedopt.geometry.arclength.arc_length_derivatives`).
+    All chains form one :class:`~feedopt.geometry.bsplines.SplineBatch`; ``eval(j, sl)``
+    inverts the arc length of chain ``j[i]`` at ``sl[i]`` and evaluates position, unit tangent
+    dp/ds, curvature vector d2p/ds2 and d3p/ds3 from the B-spline's u-derivatives 1..3 and
+    the chain rule (:func:`~feedopt.geometry.arclength.arc_length_derivatives`), every sample
+    of every chain in one vectorised call.
     """
 
     def __init__(self, segs: Sequence[Segment]):
-        self.chains = [_Chain(g.params) for g in segs]
+        self.batch, table = _batch_of([g.params for g in segs])
+        self.inverter = Inverter.of(self.batch, table)
 
     def eval(self, j, sl):
         j = np.asarray(j, dtype=np.intp)
-        sl = np.asarray(sl, dtype=float)
-        if len(self.chains) == 1:
-            return self.chains[0].eval(sl)
-        out = tuple(np.empty((sl.size, 3)) for _ in range(4))
-        order = np.argsort(j, kind="stable")
-        js = j[order]
-        cuts = np.flatnonzero(np.diff(js)) + 1
-        for part in np.split(order, cuts):
-            if part.size:
-                for o, r in zip(out, self.chains[j[part[0]]].eval(sl[part]), strict=True):
-                    o[part] = r
-        return out
+        t = self.inverter.invert(j, np.asarray(sl, dtype=float))
+        d = self.batch.evaluate(j, t, 3)
+        return (d[0], *arc_length_derivatives(d[1], d[2], d[3]))
 
 
 SPLINE = register_segment_kind(SegmentKind(

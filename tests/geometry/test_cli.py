@@ -135,3 +135,24 @@ def test_unknown_builtin_lists_the_builtins(capsys):
     assert "unknown built-in path 'builtin:hexagon'" in err
     assert "builtin:triangle, builtin:square, builtin:line" in err
     assert "x_mm,y_mm,z_mm" in err
+
+
+def test_program_beyond_the_sample_cap_of_run_is_refused_with_its_message(tmp_path, capsys):
+    """A 250 m program at 0.1 mm would be 2.5e6 samples: refused (exit 2) before sampling,
+    with the message ``feedopt run`` gives (its limit, the spacing that would do); nothing is
+    written."""
+    from feedopt.geometry.path import MAX_SAMPLES
+
+    prog = tmp_path / "long.nc"
+    prog.write_text("G21 G90 G17\nG0 X0 Y0 Z5\nS1000 M3\nG1 Z-1 F100\nG1 X250000\n"
+                    "G0 Z5\nM30\n")
+    out = tmp_path / "p.csv"
+    assert main(["path", str(prog), "--spacing", "0.1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    length = 250000 + 6 + 6  # mm: the plunge, the line, the retract (blends shorten it a hair)
+    assert f"--spacing = 0.1 mm gives {length / 0.1 + 1:.3g} samples on the" in err
+    assert f"at most {MAX_SAMPLES:.0e} are planned" in err
+    assert f"use a spacing of at least {length / (MAX_SAMPLES - 1):.2g} mm" in err
+    assert not out.exists()
+    # the same program at a spacing within the cap is written
+    assert main(["path", str(prog), "--spacing", "0.2"]) == 0

@@ -312,3 +312,25 @@ def test_sharp_corner_is_refused_or_followed():
         assert "split the chain" in str(exc)
     else:
         _check_within(ch, pts, 0.01 * MM, 0.002 * MM)
+
+
+def test_chains_fitted_together_are_each_within_their_tolerance_and_as_fitted_alone():
+    """smooth_chains: chains of different sizes and tolerances in one call; each checked by
+    brute force against its own polyline, and the same curve as its own smooth_chain call
+    (the batch mixes nothing between chains)."""
+    from feedopt.geometry.smoothing import smooth_chains
+
+    chains = [_sines(40, seed=1), _circle_points(30), _sines(300, seed=2, lo=0.1 * MM),
+              _sines(3, seed=3), _circle_points(200, chord=0.2 * MM)]
+    tols = [0.01 * MM, 0.005 * MM, 0.02 * MM, 0.01 * MM, 0.002 * MM]
+    together = smooth_chains(chains, tols)
+    for pts, tol, ch in zip(chains, tols, together, strict=True):
+        _check_within(ch, pts, tol, min(tol, 0.01 * MM))
+        alone = smooth_chain(pts, tol)
+        # (the chord lengths of the flat arrays round differently: 1e-15 m)
+        np.testing.assert_allclose(ch.params["knots"], alone.params["knots"], rtol=0,
+                                   atol=1e-13)
+        np.testing.assert_allclose(ch.params["coefficients"], alone.params["coefficients"],
+                                   rtol=0, atol=1e-10)
+        assert ch.length == pytest.approx(alone.length, rel=1e-12)
+    assert smooth_chains([], []) == []
