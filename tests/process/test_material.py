@@ -120,7 +120,11 @@ def test_a_plunge_into_the_stock_is_a_full_plunge(quick_scenario, tmp_path):
     e, inside = front.process.engagement, _plunge_samples(front)
     assert inside.sum() >= 5
     assert e.plunging.tolist() == inside.tolist()  # every plunge sample below the top, no other
-    assert np.all(e.exit[inside] == e.entry[inside])  # no side engagement on the way down
+    # no side engagement on the way straight down; the corner blend into the next cut (which
+    # the move table gives to the plunge) moves sideways too, and its side edges do cut
+    down = inside & (np.linalg.norm(front.samples.tangent[:, :2], axis=1) < 1e-6)
+    assert down.sum() >= 5
+    assert np.all(e.exit[down] == e.entry[down])
     assert not front.process.unmodelled_plunge.any()
     assert front.process.coefficients.plunge is not None
     assert not any("plunge" in w for w in front.process.warnings)
