@@ -29,6 +29,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.engagement import Engagement, validate_engagement
+from feedopt.process.force_sums import Flutes, in_cut_sum_blocks, rows_matmul, slice_lags
 from feedopt.process.plunge import plunge_parts
 from feedopt.process.tool import Tool
 
@@ -53,9 +54,8 @@ _ROW_GAP = 4.0 * math.pi
 _CHUNK = 512
 # Above this many distinct axial depths, sum slice by slice instead of one table per depth.
 _MAX_TABLES = 64
-# Elements (samples x angles) per chunk of the direct slice summation (milling_forces_at and
-# milling_forces with many distinct depths): ~0.5 MB per temporary, so the per-(tooth, slice)
-# passes stay in cache.
+# Elements (samples x angles) per chunk of the slice sums (milling_forces_at and
+# milling_forces with many distinct depths); force_sums cuts them into smaller blocks.
 _AT_CHUNK = 1 << 16
 # Exit critical angles are placed this far before the exit angle (slice still in the cut).
 _EXIT_BACKOFF = 1e-9
@@ -319,8 +319,9 @@ def milling_forces_at(
     holds the k rotation angles of tooth 1 [rad] at which sample i is evaluated, e.g. a grid
     joined with :func:`critical_angles`. A (k,) array is used for every sample.
 
-    Direct summation over teeth x slices, vectorised over samples and angles in chunks of
-    ~64 k elements so the temporaries stay small (~0.5 MB each).
+    The sums over the teeth x slices in the cut take O(1) per tooth and angle (prefix sums over
+    each run of slices in the cut, :mod:`feedopt.process.force_sums`), vectorised over
+    samples and angles in blocks of ~32 k elements so the work arrays stay in cache.
 
     Returns
     -------
@@ -350,15 +351,8 @@ def milling_forces_at(
             milling_forces_at(tool, coeffs, pieces.as_engagement(), phi[pieces.sample],
                               axial_slices),
             pieces.sample)
-    m = phi.shape[1]
-    out = np.empty((n, m, 8))
-    lag = _slice_lags(tool, engagement.axial_depth[:, None], slices)  # (n, L)
-    da = engagement.axial_depth / slices
-    step = max(1, _AT_CHUNK // m)
-    for start in range(0, n, step):
-        sl = slice(start, min(start + step, n))
-        eng = (engagement.entry[sl], engagement.exit[sl], lag[sl], da[sl])
-        out[sl] = _sums_at(tool, coeffs, phi[sl], *eng)
+    out = _sums_at(tool, coeffs, phi, engagement.entry, engagement.exit,
+                   engagement.axial_depth / slices, slices)
     return ForceSplit(np.array(phi), out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
 
 
@@ -368,63 +362,26 @@ def _sums_at(
     phi: np.ndarray,
     entry: np.ndarray,
     exit_: np.ndarray,
-    lag: np.ndarray,
     da: np.ndarray,
+    slices: int,
 ) -> np.ndarray:
-    """One chunk of :func:`milling_forces_at`: (c, k) angles -> (c, k, 8) projected sums.
+    """Projected slice sums of :func:`milling_forces_at`: (c, k) angles -> (c, k, 8).
 
-    The slice angle ``theta = mod(phi + tooth pitch - lag_j, 2 pi)`` is formed with the same
-    floating-point operations as in :func:`milling_forces` so that the in-cut test agrees at
-    the boundaries (:func:`critical_angles`); ``np.mod`` is replaced by two conditional
-    shifts, identical for arguments in [-2 pi, 4 pi) and much cheaper. Its sine and cosine
-    come from those of ``phi + tooth pitch`` and of the lag (angle difference identities).
+    The sums over the teeth x slices in the cut come from
+    :func:`feedopt.process.force_sums.in_cut_sum_blocks` in O(1) per tooth and angle (prefix
+    sums over each contiguous run of slices in the cut), block by block straight into the
+    result. At a run's end the in-cut test uses the floating-point operations of
+    :func:`milling_forces` (``mod(phi + tooth pitch - lag_j, 2 pi)``, lags of
+    :func:`_slice_lags`), so a slice at a boundary (:func:`critical_angles`) is classified
+    identically.
     """
-    st, ex = entry[:, None], exit_[:, None]
-    cl, sl = np.cos(lag), np.sin(lag)  # (c, L)
-    lag_lo, lag_hi = float(lag.min()), float(lag.max())
-    shape = phi.shape
-    b = np.zeros((5,) + shape)
-    theta = np.empty(shape)
-    mask, tmp_mask = np.empty(shape, dtype=bool), np.empty(shape, dtype=bool)
-    mk, s, c, tmp = (np.empty(shape) for _ in range(4))
-    for tooth in range(tool.teeth):
-        psi = phi + tooth * tool.pitch
-        sp, cp = np.sin(psi), np.cos(psi)
-        cheap_mod = psi.min() - lag_hi >= -_TWO_PI and psi.max() - lag_lo < 2.0 * _TWO_PI
-        for j in range(lag.shape[1]):
-            lj = lag[:, j : j + 1]
-            np.subtract(psi, lj, out=theta)
-            if cheap_mod:  # == np.mod(theta, 2 pi) for theta in [-2 pi, 4 pi)
-                np.greater_equal(theta, _TWO_PI, out=tmp_mask)
-                np.subtract(theta, _TWO_PI, out=theta, where=tmp_mask)
-                np.less(theta, 0.0, out=tmp_mask)
-                np.add(theta, _TWO_PI, out=theta, where=tmp_mask)
-            else:
-                np.mod(theta, _TWO_PI, out=theta)
-            np.greater_equal(theta, st, out=mask)
-            np.less(theta, ex, out=tmp_mask)
-            np.logical_and(mask, tmp_mask, out=mask)
-            if not mask.any():
-                continue
-            np.copyto(mk, mask)
-            # sin(psi - lag) and cos(psi - lag), zeroed outside the cut
-            np.multiply(sp, cl[:, j : j + 1], out=s)
-            np.multiply(cp, sl[:, j : j + 1], out=tmp)
-            np.subtract(s, tmp, out=s)
-            np.multiply(s, mk, out=s)
-            np.multiply(cp, cl[:, j : j + 1], out=c)
-            np.multiply(sp, sl[:, j : j + 1], out=tmp)
-            np.add(c, tmp, out=c)
-            np.multiply(c, mk, out=c)
-            b[0] += mk
-            b[1] += s
-            b[2] += c
-            np.multiply(s, c, out=tmp)
-            b[3] += tmp
-            np.multiply(s, s, out=tmp)
-            b[4] += tmp
-    b *= da[:, None]
-    return _project(b, coeffs, tool.diameter / 2.0)
+    out = np.empty(phi.shape + (8,))
+    blocks = in_cut_sum_blocks(phi, entry, exit_, da, _flutes(tool, slices),
+                               max(1, _AT_CHUNK // max(1, phi.shape[1])))
+    for sl, b in blocks:  # b: the block's work array, projected straight into out
+        b *= da[sl, None]
+        _project(b, coeffs, tool.diameter / 2.0, out[sl])
+    return out
 
 
 def _with_plunge(split: ForceSplit, tool: Tool, coeffs: CuttingCoefficients,
@@ -526,10 +483,8 @@ def _slice_sums(
     The same direct summation as :func:`milling_forces_at` (:func:`_sums_at`) with the angles
     shared by all rows.
     """
-    a = rows[:, 2]
     shared = np.broadcast_to(phi, (rows.shape[0], phi.size))
-    lag = _slice_lags(tool, a[:, None], slices)
-    p = _sums_at(tool, coeffs, shared, rows[:, 0], rows[:, 1], lag, a / slices)
+    p = _sums_at(tool, coeffs, shared, rows[:, 0], rows[:, 1], rows[:, 2] / slices, slices)
     return (p[..., 0:3], 0.0), (p[..., 4:7], 0.0), (p[..., 3], 0.0), (p[..., 7], 0.0)
 
 
@@ -539,29 +494,50 @@ def _slice_lags(tool: Tool, a: np.ndarray | float, slices: int) -> np.ndarray:
     ``a`` scalar gives shape (L,), ``a`` of shape (k, 1) gives (k, L). The single definition
     used by every force routine, so that they classify a slice at a boundary identically.
     """
-    z = (np.arange(slices) + 0.5) * (np.asarray(a, dtype=float) / slices)
-    return 2.0 * math.tan(tool.helix) / tool.diameter * z
+    return slice_lags(_helix_rate(tool), np.asarray(a, dtype=float) / slices, np.arange(slices))
 
 
-def _project(b: np.ndarray, coeffs: CuttingCoefficients, radius: float) -> np.ndarray:
+def _helix_rate(tool: Tool) -> float:
+    """Helix lag per unit height 2 tan(beta) / D [rad/m]."""
+    return 2.0 * math.tan(tool.helix) / tool.diameter
+
+
+def _flutes(tool: Tool, slices: int) -> Flutes:
+    """The tool as :mod:`feedopt.process.force_sums` sees it (L = ``slices``)."""
+    return Flutes(tool.teeth, tool.pitch, _helix_rate(tool), slices)
+
+
+def _project(b: np.ndarray, coeffs: CuttingCoefficients, radius: float,
+             out: np.ndarray | None = None) -> np.ndarray:
     """Map the five slice sums ``b = [sum 1, sin, cos, sin cos, sin^2]`` (leading axis, already
-    times the slice height da) to ``[cut x, y, z, torque, edge x, y, z, torque]`` (last axis).
-
-    The sign conventions of the module docstring: dFx = -dFt cos - dFr sin,
-    dFy = dFt sin - dFr cos, dFz = dFa, torque = D/2 dFt, with dF(t,r,a) = da (K(t,r,a)c sin phi
-    per unit c + K(t,r,a)e).
-    """
-    k = coeffs
-    out = np.empty(b.shape[1:] + (8,))
-    out[..., 0] = -k.ktc * b[3] - k.krc * b[4]
-    out[..., 1] = k.ktc * b[4] - k.krc * b[3]
-    out[..., 2] = k.kac * b[1]
-    out[..., 3] = (radius * k.ktc) * b[1]
-    out[..., 4] = -k.kte * b[2] - k.kre * b[1]
-    out[..., 5] = k.kte * b[1] - k.kre * b[2]
-    out[..., 6] = k.kae * b[0]
-    out[..., 7] = (radius * k.kte) * b[0]
+    times the slice height da) to ``[cut x, y, z, torque, edge x, y, z, torque]`` (last axis;
+    into ``out`` if given): a (.., 5) x (5, 8) product (:func:`_projection_matrix`) on row
+    blocks (:func:`feedopt.process.force_sums.rows_matmul`)."""
+    direct = out is not None and out.flags.c_contiguous
+    result = out if direct else np.empty(b.shape[1:] + (8,))
+    rows_matmul(b.reshape(5, -1).T, _projection_matrix(coeffs, radius), result.reshape(-1, 8))
+    if out is None or direct:
+        return result
+    out[...] = result
     return out
+
+
+def _projection_matrix(coeffs: CuttingCoefficients, radius: float) -> np.ndarray:
+    """(5, 8) matrix of :func:`_project`. The sign conventions of the module docstring:
+    dFx = -dFt cos - dFr sin, dFy = dFt sin - dFr cos, dFz = dFa, torque = D/2 dFt, with
+    dF(t,r,a) = da (K(t,r,a)c sin phi per unit c + K(t,r,a)e); rows [1, sin, cos, sin cos,
+    sin^2]."""
+    k = coeffs
+    m = np.zeros((5, 8))
+    m[3, 0], m[4, 0] = -k.ktc, -k.krc  # cutting x
+    m[4, 1], m[3, 1] = k.ktc, -k.krc  # cutting y
+    m[1, 2] = k.kac  # cutting z
+    m[1, 3] = radius * k.ktc  # cutting torque
+    m[2, 4], m[1, 4] = -k.kte, -k.kre  # edge x
+    m[1, 5], m[2, 5] = k.kte, -k.kre  # edge y
+    m[0, 6] = k.kae  # edge z
+    m[0, 7] = radius * k.kte  # edge torque
+    return m
 
 
 def _prefix_at(
