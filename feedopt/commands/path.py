@@ -7,6 +7,7 @@ import argparse
 
 import numpy as np
 
+from feedopt.commands import _path_stock as path_stock
 from feedopt.errors import InputError
 from feedopt.geometry import waves
 from feedopt.geometry.continuity import continuity_report
@@ -28,7 +29,8 @@ REPEAT_HINT = "pass --drop-repeated"
 # options of feedopt path itself: a size parameter may not be called like one of them
 _FIXED_OPTIONS = ("--help", "--blend", "--spacing", "--out", "--plot", "--drop-repeated",
                   "--max-rows", "--tolerance-mm", "--air-tolerance-mm", "--stock-top",
-                  "--arc-tolerance")
+                  "--arc-tolerance", "--tool", "--stock-box", "--stock-from-program",
+                  "--stock-cell")
 
 
 def _option(size_name: str) -> str:
@@ -77,6 +79,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--arc-tolerance", type=float, default=0.002, metavar="MM",
                    help="program: largest start/end radius difference of an arc (default "
                    "0.002)")
+    path_stock.add_arguments(p)
     p.add_argument("--max-rows", type=int, default=40,
                    help="junction rows (and smoothed chains) printed (head and tail; default "
                    "40, 0 = all, >= 0)")
@@ -126,6 +129,10 @@ def is_program(name: str) -> bool:
 def run(args: argparse.Namespace) -> int:
     if is_program(args.waypoints):
         return _run_program(args)
+    if args.tool is not None or args.stock_box is not None or args.stock_from_program:
+        raise InputError("--tool, --stock-box and --stock-from-program check a G-code program "
+                         f"against its stock; {args.waypoints} is not a program (.nc, .ngc, "
+                         "...): use feedopt validate on a scenario with a stock")
     size, spacing = _check_args(args)
     w = BUILTIN[args.waypoints]() if args.waypoints in BUILTIN else read_waypoints_csv(
         args.waypoints)
@@ -152,6 +159,7 @@ def _run_program(args: argparse.Namespace) -> int:
         raise InputError(f"--stock-top must be a finite number of mm, got {args.stock_top}")
     if args.max_rows < 0:
         raise InputError(f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}")
+    stock = path_stock.check_stock_args(args)
     check_data_and_plot(args.out, args.plot, [args.waypoints], "path.csv", "path.png")
     program = read_gcode(args.waypoints, arc_tolerance_mm=arc_tol / MM)
     result = program_path(program, ProgramPathOptions(
@@ -171,6 +179,8 @@ def _run_program(args: argparse.Namespace) -> int:
           f"(air {air * MM_PER_M:g} mm)")
     print(f"path length: {path.length * MM_PER_M:.6f} mm, segments: {len(kinds)} ({counts})")
     print(result.junctions.table(max_rows=args.max_rows or None))
+    if stock:
+        print(path_stock.stock_check(args, result, spacing))
     _write_outputs(args, path, spacing, program.ends * MM, program=result)
     return 0
 
