@@ -795,17 +795,20 @@ def validate_scenario(scenario_path: str | Path) -> str:
     """Check a scenario without planning: schema, files, robot, tool, material, path, and the
     process stage a run does (the stock sweep with its crash and plunge checks, the program's
     tool comment, the engagement), so that what ``run`` refuses ``validate`` refuses too."""
+    from feedopt.process.coefficients import load_coefficients
+
     scenario, base_dir = load_scenario(scenario_path)
+    tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))  # files in this order
+    load_coefficients(resolve(base_dir, scenario.material, "material file"))
     load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
     spacing = scenario.path.spacing_mm * MM
     samples = _sample(path, spacing)
-    tool_file = resolve(base_dir, scenario.tool, "tool file")
     if scenario.stock is not None and scenario.stock.from_program:
-        scenario, _ = resolve_program_stock(scenario, 0.5 * load_tool(tool_file).diameter,
-                                            samples, path.moves, spacing)
+        scenario, _ = resolve_program_stock(scenario, 0.5 * tool.diameter, samples,
+                                            path.moves, spacing)
     process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
                                  samples, _segment_names(path), moves=path.moves)
     notes = check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
