@@ -157,8 +157,12 @@ def test_no_answer_moves_more_than_the_step_limit(stretch, mode) -> None:
 
 
 def _cli_stream(args: list[str]) -> tuple[subprocess.Popen, int]:
+    # SIGINT at its default in the child, as in a terminal: a child inherits an ignored SIGINT
+    # (some earlier test in the same pytest process may leave it ignored), and Python then
+    # installs no KeyboardInterrupt handler, so the Ctrl-C test would see the stream finish.
     proc = subprocess.Popen([sys.executable, "-m", "feedopt.cli", "stream", *args], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     line = proc.stdout.readline()
     if "listening on" not in line:
         proc.kill()
