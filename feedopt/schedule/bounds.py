@@ -26,7 +26,13 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
 from feedopt.registry import add_unique
-from feedopt.schedule.deflection import AngleTerms, DeflectionModel, GridExtreme, counting
+from feedopt.schedule.deflection import (
+    AngleTerms,
+    ChunkForces,
+    DeflectionModel,
+    GridExtreme,
+    counting,
+)
 from feedopt.units import MM
 
 
@@ -152,6 +158,42 @@ def largest_feed_per_tooth_projected(a: np.ndarray, b: np.ndarray, limit: float)
     return np.maximum(np.min(_upper_roots_projected(a, b, limit), axis=1), 0.0)
 
 
+@dataclass(frozen=True)
+class ForcePass:
+    """The bounds one pass over the path's forces gives (:func:`force_pass`), (n,) each:
+    ``v_deflection`` [m/s] and ``zero_feed`` [m] of the deflection limit, ``v_torque`` and
+    ``v_power`` [m/s] of the spindle; None for a part not asked for."""
+
+    v_deflection: np.ndarray | None
+    zero_feed: np.ndarray | None
+    v_torque: np.ndarray | None
+    v_power: np.ndarray | None
+
+
+def force_pass(model: DeflectionModel, limit: float | None,
+               spindle: tuple[float, float] | None,
+               progress: Callable[[int, int], None] | None = None) -> ForcePass:
+    """The deflection bound (``limit`` [m]) and the spindle bounds (``spindle`` = (torque
+    [N m], power [W])) from one evaluation of each chunk's forces: the forces on the angle
+    grid and at the critical angles are what both need, and computing them is most of the
+    bound's time."""
+    n = model.n
+    v_d, zero = (np.empty(n), np.empty(n)) if limit is not None else (None, None)
+    v_t, v_p = (np.empty(n), np.empty(n)) if spindle is not None else (None, None)
+
+    def bound(sl: slice | np.ndarray) -> int:
+        forces = model.chunk_forces(sl)
+        if limit is not None:
+            v_d[sl], zero[sl] = _deflection_chunk(model, sl, forces, limit)
+        if spindle is not None:
+            v_t[sl], v_p[sl] = _spindle_chunk(model, forces, *spindle)
+        return forces.grid_row.size
+
+    for_each_chunk(bound, model.sample_chunks(model.chunk_size()),
+                   on_done=counting(progress, n))
+    return ForcePass(v_d, zero, v_t, v_p)
+
+
 def deflection_feed_bound(model: DeflectionModel, limit: float,
                           progress: Callable[[int, int], None] | None = None
                           ) -> tuple[np.ndarray, np.ndarray]:
@@ -161,22 +203,22 @@ def deflection_feed_bound(model: DeflectionModel, limit: float,
     angle (where forces jump) and a refinement around the binding angle
     (:meth:`DeflectionModel.refine`), so the bound holds between grid points too.
     """
-    c_max = np.empty(model.n)
-    zero = np.empty(model.n)
+    done = force_pass(model, limit, None, progress)
+    return done.v_deflection, done.zero_feed
+
+
+def _deflection_chunk(model: DeflectionModel, sl: slice | np.ndarray, forces: ChunkForces,
+                      limit: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`deflection_feed_bound` on the samples ``sl`` of one chunk, from its forces."""
+    terms = model.angle_terms(sl, forces)
 
     def window(s_: slice | np.ndarray, w: np.ndarray) -> AngleTerms:
         return AngleTerms.from_vectors(w, *model.at_angles(s_, w))
 
-    def bound(sl: slice | np.ndarray) -> int:
-        terms = model.angle_terms(sl)
-        zero[sl] = model.refine(sl, terms.angles, terms.largest_zero_feed(), "max",
-                                lambda s_, w: window(s_, w).zero_feed())
-        c_max[sl] = model.refine(sl, terms.angles, smallest_upper_root(terms, limit), "min",
-                                 lambda s_, w: upper_roots(window(s_, w), limit))
-        return terms.angles.shape[0]
-
-    for_each_chunk(bound, model.sample_chunks(model.chunk_size()),
-                   on_done=counting(progress, model.n))
+    zero = model.refine(sl, terms.angles, terms.largest_zero_feed(), "max",
+                        lambda s_, w: window(s_, w).zero_feed())
+    c_max = model.refine(sl, terms.angles, smallest_upper_root(terms, limit), "min",
+                         lambda s_, w: upper_roots(window(s_, w), limit))
     return np.maximum(c_max, 0.0) * model.feed_per_unit_c, zero
 
 
@@ -185,9 +227,16 @@ def spindle_feed_bounds(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Feed bounds [m/s] from the spindle's torque [N m] and power [W] over a revolution
     (instantaneous torque D/2 Ft of Algorithm 1 on the grid and at every slice entry/exit)."""
+    done = force_pass(model, None, (torque_max, power_max))
+    return done.v_torque, done.v_power
+
+
+def _spindle_chunk(model: DeflectionModel, f: ChunkForces, torque_max: float,
+                   power_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`spindle_feed_bounds` of one chunk from its forces: per distinct force row (a
+    slot has one), then per sample (the same numbers as per sample, without repeating them)."""
     omega = model.rpm * 2.0 * np.pi / 60.0
-    v_t = np.empty(model.n)
-    v_p = np.empty(model.n)
+
     def smallest(tc: np.ndarray, te: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per row, the largest c within the torque and the power limits over the angles."""
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -195,17 +244,10 @@ def spindle_feed_bounds(
             cp = np.where(tc > 0, (power_max / omega - te) / tc, np.inf).min(axis=1)
         return ct, cp
 
-    def bound(sl: slice | np.ndarray) -> None:
-        # per distinct force row (a slot has one), then per sample: the same numbers as
-        # per sample, without repeating them
-        f = model.chunk_forces(sl)
-        grid_t, grid_p = smallest(f.grid.cutting_torque, f.grid.edge_torque)
-        crit_t, crit_p = smallest(f.at_critical.cutting_torque, f.at_critical.edge_torque)
-        v_t[sl] = np.minimum(grid_t[f.grid_row], crit_t[f.critical_row]) * model.feed_per_unit_c
-        v_p[sl] = np.minimum(grid_p[f.grid_row], crit_p[f.critical_row]) * model.feed_per_unit_c
-
-    for_each_chunk(bound, model.sample_chunks(8192))
-    return v_t, v_p
+    grid_t, grid_p = smallest(f.grid.cutting_torque, f.grid.edge_torque)
+    crit_t, crit_p = smallest(f.at_critical.cutting_torque, f.at_critical.edge_torque)
+    return (np.minimum(grid_t[f.grid_row], crit_t[f.critical_row]) * model.feed_per_unit_c,
+            np.minimum(grid_p[f.grid_row], crit_p[f.critical_row]) * model.feed_per_unit_c)
 
 
 def joint_velocity_feed_bound(dq_ds: np.ndarray, joint_velocity_max: np.ndarray) -> np.ndarray:
@@ -214,16 +256,26 @@ def joint_velocity_feed_bound(dq_ds: np.ndarray, joint_velocity_max: np.ndarray)
         return np.min(joint_velocity_max / np.abs(dq_ds), axis=1)
 
 
+def _pass(inputs: BoundInputs) -> ForcePass:
+    """:func:`force_pass` with the deflection and the spindle limits, once per bound."""
+    if "force_pass" not in inputs.cache:
+        spindle = ((inputs.torque_max, inputs.power_max)
+                   if np.isfinite(inputs.torque_max) or np.isfinite(inputs.power_max) else None)
+        inputs.cache["force_pass"] = force_pass(inputs.model, inputs.limit, spindle,
+                                                inputs.progress)
+    return inputs.cache["force_pass"]
+
+
 def _spindle(inputs: BoundInputs) -> tuple[np.ndarray, np.ndarray]:
-    if "spindle" not in inputs.cache:
-        v_t, v_p = spindle_feed_bounds(inputs.model, inputs.torque_max, inputs.power_max)
-        if np.any(v_t <= 0) or np.any(v_p <= 0):
-            raise InputError(
-                "the spindle cannot take this cut even at zero feed: edge-force torque or power "
-                f"exceeds the spindle's {inputs.torque_max:g} N m / {inputs.power_max:g} W"
-            )
-        inputs.cache["spindle"] = (v_t, v_p)
-    return inputs.cache["spindle"]
+    done = _pass(inputs)
+    if done.v_torque is None:  # no spindle limit
+        return np.full(inputs.n, np.inf), np.full(inputs.n, np.inf)
+    if np.any(done.v_torque <= 0) or np.any(done.v_power <= 0):
+        raise InputError(
+            "the spindle cannot take this cut even at zero feed: edge-force torque or power "
+            f"exceeds the spindle's {inputs.torque_max:g} N m / {inputs.power_max:g} W"
+        )
+    return done.v_torque, done.v_power
 
 
 @dataclass(frozen=True)
@@ -237,7 +289,8 @@ class DeflectionConstraint:
         the worst sample, its position, the zero-feed deflection and the smallest workable
         limit."""
         limit = inputs.limit
-        v_defl, zero = deflection_feed_bound(inputs.model, limit, inputs.progress)
+        done = _pass(inputs)
+        v_defl, zero = done.v_deflection, done.zero_feed
         inputs.cache["zero_feed_deflection"] = zero
         bad = np.flatnonzero(zero > limit)
         if bad.size:

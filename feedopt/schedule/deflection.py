@@ -241,7 +241,8 @@ class DeflectionModel:
         return (np.concatenate([grid, crit], axis=1), np.concatenate([a_grid, a_crit], axis=1),
                 np.concatenate([b_grid, b_crit], axis=1))
 
-    def angle_terms(self, sl: slice | np.ndarray) -> AngleTerms:
+    def angle_terms(self, sl: slice | np.ndarray,
+                    forces: ChunkForces | None = None) -> AngleTerms:
         """What the bound and the replay need of samples ``sl`` over the angles of
         :meth:`terms` (same angles, same values up to rounding), without forming a and b.
 
@@ -251,9 +252,10 @@ class DeflectionModel:
         a force row is one matrix product (g, 6) x (6, 3 M) (a directional limit: w = (C R)^T u
         and a_n = w . Fc, (g, 3) x (3, 2 M)). Samples that share little (a stock's
         engagement changing every sample, pieced samples) and the residual mode take the
-        direct route of :meth:`terms`.
+        direct route of :meth:`terms`. ``forces``: :meth:`chunk_forces` of ``sl`` if already
+        computed.
         """
-        f = self.chunk_forces(sl)
+        f = self.chunk_forces(sl) if forces is None else forces
         k = f.grid_row.size
         angles = np.concatenate([np.broadcast_to(self.angles, (k, self.angles.size)),
                                  f.critical], axis=1)
