@@ -271,7 +271,7 @@ def prepare(
     with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
             robot, scenario, samples):
         along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
-                                 np.deg2rad(scenario.robot.start_configuration_deg),
+                                 start_joints(robot, scenario),
                                  scenario.robot.stiffness, x_axes=x_axes, progress=bar,
                                  breaks=interior_stop_indices(path.stops, samples.s))
     warnings += along.warnings
@@ -331,7 +331,7 @@ def _suggesting_position(robot: RobotModel, scenario: Scenario, samples: PathPoi
         wp = scenario.workpiece
         hint = suggest_workpiece_position(
             robot, samples.position, wp.position_mm, wp.rpy_deg, wp.tool_axis,
-            np.deg2rad(scenario.robot.start_configuration_deg),
+            start_joints(robot, scenario),
             scenario.robot.fix_tool_rotation)
         raise InputError(f"{exc}; {hint}") from None
 
@@ -346,7 +346,7 @@ def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
     sc = front.scenario
     opts = sc.robot.redundancy_options
     coarse = prepare_front(sc, base_dir, lambda _m: None, spacing_mm=opts.search_spacing_mm)
-    q_start = np.deg2rad(sc.robot.start_configuration_deg)
+    q_start = start_joints(robot, sc)
     coarse_nearest = robot_along_path(robot, coarse.samples.s, coarse.placement.positions,
                                       coarse.placement.tool_axes, q_start, sc.robot.stiffness)
 
@@ -439,6 +439,12 @@ def plan_and_verify(
     return {law: results[law] for law in laws if law in results}
 
 
+def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
+    """``robot.start_configuration_deg``, the controller's axis values (robot.yaml
+    ``controller.axes``), as the URDF's joints [rad]."""
+    return robot.axis_convention.from_controller(scenario.robot.start_configuration_deg)
+
+
 def _x_axes(scenario: Scenario, placement: Placement) -> np.ndarray | None:
     """Prescribed tool x axes (``robot.fix_tool_rotation``) or None (5-DoF, nearest)."""
     if not scenario.robot.fix_tool_rotation:
@@ -461,7 +467,7 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
 
     sc, samples = prepared.scenario, prepared.samples
     nominal = prepared.placement.positions
-    q_start = np.deg2rad(sc.robot.start_configuration_deg)
+    q_start = start_joints(prepared.robot, sc)
     x_axes = _x_axes(sc, prepared.placement)
     red = prepared.redundancy
     if red is not None and red.x_axes is not None:  # keep the optimised psi(s)

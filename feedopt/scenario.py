@@ -10,26 +10,25 @@ reference of every field (generated from this module).
 
 from __future__ import annotations
 
-import difflib
 import os
 from pathlib import Path
-from typing import Annotated, Literal, get_args, get_origin
+from typing import Annotated, Literal
 
 from pydantic import (
     BaseModel,
-    ConfigDict,
     Field,
     ValidationError,
     field_validator,
     model_validator,
 )
 
+from feedopt import schema
 from feedopt.errors import InputError
 from feedopt.geometry.registry import blend_names
 from feedopt.schedule.laws import LAWS as LAW_REGISTRY
 from feedopt.schedule.laws import law_names
 from feedopt.textio import read_user_text
-from feedopt.yamlio import excerpt, parse_yaml, read_yaml
+from feedopt.yamlio import parse_yaml, read_yaml
 
 # Allowed laws and blends come from their registries (feedopt.schedule.laws,
 # feedopt.geometry.registry): a new law or blend kind needs no edit here.
@@ -48,10 +47,7 @@ FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 Vector3 = Annotated[list[FiniteFloat], Field(min_length=3, max_length=3)]
 
 
-class _Strict(BaseModel):
-    # strict: a number field takes a number written as a number (no "true" -> 1.0, no
-    # strings parsed as numbers); the YAML reader keeps 0x1D, yes/no, 1:30 as strings.
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+_Strict = schema.Strict
 
 
 class RedundancySection(_Strict):
@@ -79,7 +75,9 @@ class RobotSection(_Strict):
     stiffness: Literal["dpp", "cp"] = Field("dpp", description="joint stiffness set of thesis "
                                             "Table 3.4 (DPP is what the thesis uses, Eq. 3.20)")
     start_configuration_deg: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] = (
-        Field(description="joint values that seed IK at the first sample (deg)")
+        Field(description="joint values that seed IK at the first sample: the controller's "
+              "axis values in deg, as on its pendant (robot.yaml controller.axes converts "
+              "them; the URDF's joint angles when it states no axes)")
     )
     fix_tool_rotation: bool = Field(False, description="fix the rotation about the tool axis "
                                     "(6-DoF task); default: free, the milling 5-DoF task")
@@ -549,36 +547,9 @@ def scenario_warnings(scenario: Scenario) -> list[str]:
     return out
 
 
-def _field_names(model: type[BaseModel], loc: tuple) -> list[str]:
-    """Valid field names at location ``loc`` (for suggestions)."""
-    current: type[BaseModel] | None = model
-    for part in loc:
-        if current is None or not isinstance(part, str) or part not in current.model_fields:
-            break
-        ann = current.model_fields[part].annotation
-        current = next((a for a in getattr(ann, "__args__", (ann,))
-                        if isinstance(a, type) and issubclass(a, BaseModel)), None)
-    return list(current.model_fields) if current is not None else []
-
-
 def format_validation_error(exc: ValidationError, source: str) -> str:
-    """One readable message for all pydantic errors: field path, problem, suggestion."""
-    lines = [f"{source}: invalid scenario ({exc.error_count()} problem(s)):"]
-    for err in exc.errors():
-        loc = tuple(err["loc"])
-        path = ".".join(str(p) for p in loc) or "(top level)"
-        if err["type"] == "extra_forbidden":
-            names = _field_names(Scenario, loc[:-1])
-            close = difflib.get_close_matches(str(loc[-1]), names, n=1)
-            hint = f"; did you mean '{close[0]}'?" if close else f"; valid: {', '.join(names)}"
-            lines.append(f"  - {path}: unknown field{hint}")
-        elif err["type"] == "missing":
-            lines.append(f"  - {path}: required field is missing")
-        else:
-            got = err.get("input")
-            got_s = "" if isinstance(got, dict) else f" (got {excerpt(got)})"
-            lines.append(f"  - {path}: {err['msg']}{got_s}")
-    return "\n".join(lines)
+    """One readable message for all pydantic errors of a scenario (:mod:`feedopt.schema`)."""
+    return schema.format_validation_error(exc, source, Scenario, "scenario")
 
 
 def load_scenario(path: str | Path) -> tuple[Scenario, Path]:
@@ -655,42 +626,14 @@ def resolve(base: Path, relative: str, what: str) -> Path:
     return p
 
 
-def _type_name(ann: object) -> str:
-    """Readable type of a field: allowed values of a Literal, list of numbers, ..."""
-    origin, args = get_origin(ann), get_args(ann)
-    if origin is Literal:
-        return " | ".join(repr(a) for a in args)
-    if origin is list:
-        return "list of numbers" if args and get_args(args[0])[:1] == (float,) else "list"
-    if origin is Annotated:
-        return _type_name(args[0])
-    if args:  # a union such as float | None
-        return " | ".join("null" if a is type(None) else _type_name(a) for a in args)
-    return getattr(ann, "__name__", str(ann))
-
-
 def schema_reference() -> str:
     """A markdown reference of every scenario field, generated from the schema."""
     out = ["# Scenario reference", "",
            "Generated from `feedopt/scenario.py` (`feedopt validate --schema`).", ""]
 
-    def walk(model: type[BaseModel], prefix: str) -> None:
-        for name, f in model.model_fields.items():
-            ann = f.annotation
-            sub = next((a for a in getattr(ann, "__args__", (ann,))
-                        if isinstance(a, type) and issubclass(a, BaseModel)), None)
-            default = "required" if f.is_required() else f"default `{f.default!r}`"
-            if sub is not None and sub is not DepthProfile:
-                note = f": {f.description}" if f.description else ""
-                out.append(f"- **{prefix}{name}** (section){note}")
-                walk(sub, f"{prefix}{name}.")
-            else:
-                out.append(f"- **{prefix}{name}** — {f.description or ''} ({default}; "
-                           f"{_type_name(ann)})")
-
-    walk(Scenario, "")
+    out += schema.reference_lines(Scenario, "", leaves=(DepthProfile,))
     out += ["", "## Timing laws and their options (schedule.law_options.<law>)", ""]
     for name, spec in LAW_REGISTRY.items():
         out.append(f"- **{name}**: {spec.description}")
-        walk(spec.options_model(), f"schedule.law_options.{name}.")
+        out += schema.reference_lines(spec.options_model(), f"schedule.law_options.{name}.")
     return "\n".join(out) + "\n"

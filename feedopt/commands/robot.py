@@ -101,13 +101,18 @@ def _floats(text: str, n: int, option: str) -> np.ndarray:
 def run(args: argparse.Namespace) -> int:
     """Validate, compute and print; returns 0."""
     robot = load_robot(args.robot_dir)
-    q = np.deg2rad(_floats(args.q_deg, robot.dof, "--q-deg"))
+    axes = robot.axis_convention
+    given = _floats(args.q_deg, robot.dof, "--q-deg")
+    q = axes.from_controller(given)
     bad = np.flatnonzero((q < robot.q_lower) | (q > robot.q_upper))
     if bad.size:
         j = int(bad[0])
+        ends = np.sort(axes.to_controller(np.stack([robot.q_lower, robot.q_upper]))[:, j])
         raise InputError(
-            f"--q-deg: joint {j + 1} = {np.rad2deg(q[j]):.3f} deg is outside its limits "
-            f"[{np.rad2deg(robot.q_lower[j]):.1f}, {np.rad2deg(robot.q_upper[j]):.1f}] deg"
+            f"--q-deg: axis {j + 1} (joint {robot.joint_names[j]}) = {given[j]:.3f} is outside "
+            f"its limits [{ends[0]:.1f}, {ends[1]:.1f}] (the controller's axis values, deg"
+            + ("" if axes.stated else "; the URDF's angles: robot.yaml states no "
+               "controller.axes") + ")"
         )
     force = None if args.force_n is None else _floats(args.force_n, 3, "--force-n")
     k = joint_stiffness(robot, args.stiffness)

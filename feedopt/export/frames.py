@@ -308,6 +308,8 @@ class EntryExit:
     lead_in : the path start moved back :data:`LEAD_IN_MM` along the start tangent
     lead_out : the path end moved on :data:`LEAD_OUT_MM` along the end tangent
     retract : :data:`APPROACH_MM` above the lead-out point
+    approach_axes_deg : the controller's axis values of ``q_above_lead_in`` [deg] (robot.yaml
+        ``controller.axes``), what a PTP to it writes
     """
 
     above_lead_in: np.ndarray
@@ -318,6 +320,7 @@ class EntryExit:
     q_lead_in: np.ndarray
     q_lead_out: np.ndarray
     q_retract: np.ndarray
+    approach_axes_deg: np.ndarray
 
 
 def entry_exit(job: ExportJob) -> EntryExit:
@@ -343,4 +346,5 @@ def entry_exit(job: ExportJob) -> EntryExit:
     return EntryExit(above_lead_in=pose(fk[0], back + up0), lead_in=pose(fk[0], back),
                      lead_out=pose(fk[1], on), retract=pose(fk[1], on + up1),
                      q_above_lead_in=q_in[1], q_lead_in=q_in[0], q_lead_out=q_out[0],
-                     q_retract=q_out[1])
+                     q_retract=q_out[1],
+                     approach_axes_deg=job.robot.axis_convention.to_controller(q_in[1]))

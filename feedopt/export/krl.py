@@ -58,6 +58,7 @@ from feedopt.export.frames import (
     header_lines,
 )
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.robot.axes import UNSTATED_AXES
 from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
@@ -390,7 +391,7 @@ def write_krl_program(
         out += ["", f"; retract {APPROACH_MM:g} mm up the tool axis",
                 f"SLIN {_pose(entry.retract)} WITH $VEL.CP = {_fmt_vel(approach_vel_m_s)}"]
     out += ["", *spindle.lines(on=False), "END"]
-    approach = q0 if entry is None else np.rad2deg(entry.q_above_lead_in)
+    approach = q0 if entry is None else entry.approach_axes_deg
     dat = dat_text(name, frames, approach, comments)
     dat_path = path.with_suffix(".dat")
     path.write_text("\n".join(out) + "\n", encoding="ascii")
@@ -539,7 +540,7 @@ def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.nd
     q = job.q_of_s(s_arr)
     pose = forward_kinematics(job.robot, q)
     points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
-    return points, motions, np.asarray(vels), np.rad2deg(q[0])
+    return points, motions, np.asarray(vels), job.robot.axis_convention.to_controller(q[0])
 
 
 def segment_count(path) -> int:
@@ -554,6 +555,8 @@ def early_check(robot, path) -> Blocker | None:
         return Blocker(f"no KRL program: robot {robot.name} has controller "
                        f"'{robot.controller}' (robot.yaml), KRL is for KUKA controllers",
                        warn=False)
+    if not robot.axis_convention.stated:
+        return Blocker(f"no KRL program: {UNSTATED_AXES}")
     n_segments = segment_count(path)
     if n_segments > MAX_SEGMENTS:
         return Blocker(f"no KRL program: the path's key points make {n_segments} spline "

@@ -14,6 +14,7 @@ back the same bits.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
@@ -298,6 +299,8 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
     deflection = np.interp(motion.s, job.problem.s, job.verification.deflection)
     table = rsi_table_from_si(motion.t, pose[:, :3, 3], pose[:, :3, :3], q, motion.s,
                               motion.sdot, motion.sddot, job.samples.jerk, deflection)
+    axes = job.robot.axis_convention
+    table = dataclasses.replace(table, q_deg=axes.to_controller(q))
     ver = job.verification
     write_rsi_csv(out_dir / f"{job.law}.csv", table, comments=[
         status_line(job),
@@ -305,6 +308,7 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
         f"{ver.max_deflection / MM:.4f} mm (limit {job.limit_mm} mm)",
         "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
         "deflection = predicted static deflection at the commanded feed",
+        f"q1..q6: {axes.describe()}",
         *frames_header_lines(job.robot),
         *header_notes(job),
     ])

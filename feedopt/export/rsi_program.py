@@ -42,6 +42,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.export.frames import APPROACH_MM, cell_frames, header_lines, joints_at_offsets
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.robot.axes import UNSTATED_AXES
 from feedopt.rsi.corrections import (
     CorrectionMode,
     CorrectionPlan,
@@ -214,14 +215,15 @@ def _approach_and_retract(job: ExportJob, plan: CorrectionPlan
     there is no approach pose (or None)."""
     from feedopt.robot.model import forward_kinematics
 
-    q0 = np.deg2rad(plan.start_q_deg)
+    axes = job.robot.axis_convention
+    q0 = axes.from_controller(plan.start_q_deg)
     q_end = job.q_of_s(np.array([job.samples.motion.s[-1]]))[0]
     start, end = forward_kinematics(job.robot, np.stack([q0, q_end]))
     try:
         q_up = joints_at_offsets(job.robot, q0, APPROACH_MM * MM * start[:3, 2])[0]
     except InputError as exc:
         return None, APPROACH_MM * end[:3, 2], str(exc)
-    return np.rad2deg(q_up), APPROACH_MM * end[:3, 2], None
+    return axes.to_controller(q_up), APPROACH_MM * end[:3, 2], None
 
 
 def law_plan(job: ExportJob) -> CorrectionPlan:
@@ -233,7 +235,8 @@ def law_plan(job: ExportJob) -> CorrectionPlan:
     motion = job.samples.motion
     q, pose = job.controller_joints, job.controller_pose
     poses = np.column_stack([pose[:, :3, 3] * MM_PER_M, abc_from_rotation(pose[:, :3, :3])])
-    return plan_from_poses(motion.t, poses, np.rad2deg(q[0]), job.cycle, f"{job.law}.csv")
+    return plan_from_poses(motion.t, poses, job.robot.axis_convention.to_controller(q[0]),
+                           job.cycle, f"{job.law}.csv")
 
 
 def export_rsi_program(job: ExportJob, out_dir: Path) -> dict:
@@ -267,6 +270,8 @@ def early_check(robot, path) -> Blocker | None:
         return Blocker(f"no RSI host program: robot {robot.name} has controller "
                        f"'{robot.controller}' (robot.yaml); RSI is a KUKA controller option",
                        warn=False)
+    if not robot.axis_convention.stated:
+        return Blocker(f"no RSI host program: {UNSTATED_AXES}")
     return None
 
 

@@ -175,7 +175,8 @@ def export_urscript(job: ExportJob, out_dir: Path, cycle_s: float = CYCLE_S,
     from feedopt.export.gcode_out import law_feed_targets
 
     motion = job.trajectory.sample_uniform(cycle_s)
-    q = job.q_of_s(np.clip(motion.s, 0.0, job.problem.length))
+    axes = job.robot.axis_convention  # UR joint values [rad] of the URDF's joints
+    q = axes.to_controller_si(job.q_of_s(np.clip(motion.s, 0.0, job.problem.length)))
     target = law_feed_targets(job.verification.feed, job.problem.v_max,
                               job.verification.exportable)
     try:
@@ -183,8 +184,10 @@ def export_urscript(job: ExportJob, out_dir: Path, cycle_s: float = CYCLE_S,
         entry = entry_exit(job)
         text = urscript_text(
             job.law, q, cycle_s=cycle_s, tcp_pose=frames.tcp_pose_ur,
-            q_above=entry.q_above_lead_in, q_lead_in=entry.q_lead_in,
-            q_lead_out=entry.q_lead_out, q_retract=entry.q_retract,
+            q_above=axes.to_controller_si(entry.q_above_lead_in),
+            q_lead_in=axes.to_controller_si(entry.q_lead_in),
+            q_lead_out=axes.to_controller_si(entry.q_lead_out),
+            q_retract=axes.to_controller_si(entry.q_retract),
             lead_speed_m_s=(float(target[0]), float(target[-1])), spindle=spindle,
             comments=(status_line(job), *header_lines(frames), *header_notes(job),
                       f"servoj every {cycle_s:g} s: {job.trajectory.duration:.4f} s of cutting"))

@@ -19,6 +19,7 @@ fixed-axis roll-pitch-yaw angles of the TCP frame in the flange frame.
 
 from __future__ import annotations
 
+import difflib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,23 +28,28 @@ import numpy as np
 import pinocchio as pin
 
 from feedopt.errors import InputError
+from feedopt.robot.axes import AxisConvention, axis_convention
 from feedopt.robot.frames import transform_from_xyz_rpy
+from feedopt.robot.robot_file import (
+    CONTROLLERS,
+    RobotFile,
+    SourcedValues,
+    ToolSection,
+    parse_robot_file,
+    stiffness_unit_mistake,
+)
 from feedopt.textio import read_user_bytes
 from feedopt.units import MM
 from feedopt.yamlio import read_yaml
 
 TCP_FRAME_NAME = "feedopt_tcp"
-#: Controller families a robot.yaml may name (``controller:``); ``generic`` gets no native
-#: program, only the RSI-style setpoint CSV.
-CONTROLLERS = ("kuka", "ur", "generic")
+__all__ = ["CONTROLLERS", "RobotModel", "load_robot"]
 #: robot.yaml gives joint stiffness in MN m/rad, speeds and accelerations in deg.
 _NM_PER_MNM = 1e6
 _RAD_PER_DEG = np.pi / 180.0
 #: Ranges a robot.yaml number must lie in (beyond them it is a typo or garbage, and its SI
-#: value or reciprocal overflows downstream): joint stiffness [MNm/rad] (a small cobot's
-#: ~0.01 to a large robot's ~10), speed [deg/s], acceleration [deg/s^2], TCP offset [mm]
-#: and angles [deg].
-STIFFNESS_RANGE_MNM = (1e-6, 1e6)
+#: value overflows downstream): speed [deg/s], acceleration [deg/s^2], TCP offset [mm] and
+#: angles [deg]. Joint stiffness: feedopt.robot.robot_file.STIFFNESS_PLAUSIBLE_MNM.
 VELOCITY_RANGE_DEG_S = (1e-3, 1e5)
 ACCELERATION_RANGE_DEG_S2 = (1e-3, 1e7)
 MAX_TCP_OFFSET_MM = 1e4
@@ -96,6 +102,14 @@ class RobotModel:
     joint_names: tuple[str, ...] = field(default=())
     controller: str = "generic"
     data_warnings: tuple[str, ...] = field(default=())
+    axes: AxisConvention | None = None
+
+    @property
+    def axis_convention(self) -> AxisConvention:
+        """The controller's axis convention (identity in deg when robot.yaml states none)."""
+        if self.axes is not None:
+            return self.axes
+        return AxisConvention.identity(np.full(self.dof, np.pi / 180.0))
 
     @property
     def dof(self) -> int:
@@ -114,61 +128,55 @@ def _in_range(arr: np.ndarray, bounds: tuple[float, float], what: str, unit: str
                          f"{arr.tolist()}")
 
 
-def _values(doc: dict, key: str, dof: int, scale: float, where: Path,
-            bounds: tuple[float, float], unit: str) -> tuple[np.ndarray, str]:
-    """Read ``key`` as ``{values: [...], source: ...}`` (or a bare list) within ``bounds``,
-    scaled to SI."""
-    if key not in doc:
-        raise InputError(f"{where}: missing field '{key}' ({dof} values with a 'source:' line)")
-    entry = doc[key]
-    source = ""
-    if isinstance(entry, dict):
-        source = str(entry.get("source", ""))
-        entry = entry.get("values")
-    arr = _as_vector(entry, dof, f"{where}: {key}")
-    if np.any(arr <= 0):
-        raise InputError(f"{where}: {key} must be positive, got {arr.tolist()}")
-    _in_range(arr, bounds, f"{where}: {key}", unit)
-    return arr * scale, source
-
-
-def _as_vector(entry: object, dof: int, what: str) -> np.ndarray:
-    try:
-        arr = np.asarray(entry, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{what}: expected {dof} numbers, got {entry!r}") from exc
-    if arr.shape != (dof,) or not np.all(np.isfinite(arr)):
-        raise InputError(f"{what}: expected {dof} finite numbers, got {entry!r}")
+def _per_joint(values: list[float], robot_joints: tuple[str, ...], what: str) -> np.ndarray:
+    """``values`` as an array, InputError unless there is one per joint (named)."""
+    arr = np.asarray(values, dtype=float)
+    if arr.shape != (len(robot_joints),):
+        raise InputError(f"{what}: expected {len(robot_joints)} values, one per joint "
+                         f"({', '.join(robot_joints)}), got {len(values)}")
     return arr
 
 
-def _tool_transform(tool: dict, where: Path) -> np.ndarray:
+def _scales(model: pin.Model) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Per joint, robot.yaml unit -> SI (deg -> rad for revolute, mm -> m for prismatic
+    joints) and the joints' names."""
+    names, scale = [], []
+    for j in range(1, model.njoints):
+        names.append(model.names[j])
+        prismatic = model.joints[j].shortname().startswith("JointModelP")  # PX, PY, PZ, ...
+        scale.append(MM if prismatic else _RAD_PER_DEG)
+    return np.asarray(scale), tuple(names)
+
+
+def _limit_values(entry: SourcedValues, key: str, names: tuple[str, ...], scale: np.ndarray,
+                  where: Path, bounds: tuple[float, float], unit: str) -> tuple[np.ndarray, str]:
+    """A speed or acceleration list, one per joint within ``bounds``, scaled to SI."""
+    arr = _per_joint(entry.values, names, f"{where}: {key}")
+    _in_range(arr, bounds, f"{where}: {key}", unit)
+    return arr * scale, entry.source
+
+
+def _tool_transform(tool: ToolSection, where: Path) -> np.ndarray:
     """Flange -> TCP transform (4, 4) [m] from ``tool.tcp_xyz_mm`` and ``tool.tcp_rpy_deg``."""
-    xyz = _as_vector(tool.get("tcp_xyz_mm", [0, 0, 0]), 3, f"{where}: tool.tcp_xyz_mm") * MM
-    rpy = _as_vector(tool.get("tcp_rpy_deg", [0, 0, 0]), 3, f"{where}: tool.tcp_rpy_deg")
-    _in_range(xyz / MM, (-MAX_TCP_OFFSET_MM, MAX_TCP_OFFSET_MM), f"{where}: tool.tcp_xyz_mm",
-              "mm")
+    xyz = np.asarray(tool.tcp_xyz_mm, dtype=float)
+    rpy = np.asarray(tool.tcp_rpy_deg, dtype=float)
+    _in_range(xyz, (-MAX_TCP_OFFSET_MM, MAX_TCP_OFFSET_MM), f"{where}: tool.tcp_xyz_mm", "mm")
     _in_range(rpy, (-MAX_TCP_ANGLE_DEG, MAX_TCP_ANGLE_DEG), f"{where}: tool.tcp_rpy_deg", "deg")
-    return transform_from_xyz_rpy(xyz, rpy)
+    return transform_from_xyz_rpy(xyz * MM, rpy)
 
 
-def _read_robot_yaml(directory: Path) -> tuple[dict, Path]:
-    """``robot.yaml`` of ``directory`` as a mapping, and its path."""
+def _read_robot_yaml(directory: Path) -> tuple[RobotFile, Path]:
+    """``robot.yaml`` of ``directory``, validated, and its path."""
     yaml_path = directory / "robot.yaml"
     if not os.path.lexists(yaml_path):  # a FIFO, a loop, a folder: the reader says which
         raise InputError(f"{directory}: no robot.yaml found (a robot directory needs one)")
-    doc = read_yaml(yaml_path, "robot file") or {}
-    if not isinstance(doc, dict):
-        raise InputError(f"{yaml_path}: expected a mapping at the top level")
-    return doc, yaml_path
+    return parse_robot_file(read_yaml(yaml_path, "robot file") or {}, yaml_path), yaml_path
 
 
-def _read_kinematics(doc: dict, directory: Path, yaml_path: Path) -> tuple[pin.Model, Path]:
+def _read_kinematics(doc: RobotFile, directory: Path, yaml_path: Path) -> tuple[pin.Model, Path]:
     """The pinocchio model of the URDF that ``robot.yaml`` names, and its path."""
-    if "urdf" not in doc:
-        raise InputError(f"{yaml_path}: missing field 'urdf' (file name of the URDF)")
-    urdf = doc["urdf"]
-    if not isinstance(urdf, str) or not urdf.strip():
+    urdf = doc.urdf
+    if not urdf.strip():
         raise InputError(f"{yaml_path}: urdf must be the file name of the URDF, got {urdf!r}")
     urdf_path = directory / urdf
     try:
@@ -183,12 +191,16 @@ def _read_kinematics(doc: dict, directory: Path, yaml_path: Path) -> tuple[pin.M
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"{urdf_path}: pinocchio could not read the URDF: {exc}") from exc
     if model.nv != model.nq:
-        raise InputError(f"{urdf_path}: only revolute/prismatic joints are supported (nq != nv)")
+        odd = [model.names[j] for j in range(1, model.njoints)
+               if model.joints[j].nq != model.joints[j].nv]
+        raise InputError(f"{urdf_path}: joint(s) {', '.join(odd)} are continuous (unbounded "
+                         "revolute); only revolute joints with <limit lower upper> and "
+                         "prismatic joints are supported: give each a finite range")
     return model, urdf_path
 
 
 def _add_tcp_frame(
-    model: pin.Model, doc: dict, yaml_path: Path, urdf_path: Path
+    model: pin.Model, doc: RobotFile, yaml_path: Path, urdf_path: Path
 ) -> tuple[int, np.ndarray, str]:
     """The TCP frame, either one already in the URDF (``tcp_frame``) or the flange
     frame + the tool transform (added to ``model`` as :data:`TCP_FRAME_NAME`).
@@ -201,78 +213,72 @@ def _add_tcp_frame(
     source : str
         Where the tool numbers come from.
     """
-    tool = doc.get("tool") or {}
-    if not isinstance(tool, dict):
-        raise InputError(f"{yaml_path}: 'tool' must be a mapping")
-    if "tcp_frame" in doc:
-        name = str(doc["tcp_frame"])
+    frames = [f.name for f in model.frames]
+    if doc.tcp_frame is not None:
+        name = doc.tcp_frame
         if not model.existFrame(name):
-            raise InputError(f"{yaml_path}: tcp_frame '{name}' is not a frame of {urdf_path.name}")
-        source = str(tool.get("source", f"TCP frame '{name}' of the URDF"))
-        return int(model.getFrameId(name)), np.eye(4), source
-    flange = str(doc.get("flange_frame", ""))
-    if not flange or not model.existFrame(flange):
-        raise InputError(
-            f"{yaml_path}: give 'tcp_frame' or a 'flange_frame' that exists in "
-            f"{urdf_path.name} (got {flange!r})"
-        )
+            raise InputError(f"{yaml_path}: tcp_frame '{name}' is not a frame of "
+                             f"{urdf_path.name}{_nearest(name, frames)}")
+        return int(model.getFrameId(name)), np.eye(4), doc.tool.source
+    flange = doc.flange_frame or ""
+    if not model.existFrame(flange):
+        raise InputError(f"{yaml_path}: flange_frame '{flange}' is not a frame of "
+                         f"{urdf_path.name}{_nearest(flange, frames)}")
     fid = int(model.getFrameId(flange))
-    tcp_offset = _tool_transform(tool, yaml_path)
     parent = model.frames[fid]
+    if parent.parentJoint == 0:
+        raise InputError(f"{yaml_path}: flange_frame '{flange}' is fixed to the base (no joint "
+                         "moves it); name the frame at the end of the arm (e.g. 'flange' or "
+                         "'tool0')")
+    tcp_offset = _tool_transform(doc.tool, yaml_path)
     placement = parent.placement * pin.SE3(tcp_offset[:3, :3], tcp_offset[:3, 3])
     frame = pin.Frame(TCP_FRAME_NAME, parent.parentJoint, fid, placement, pin.FrameType.OP_FRAME)
-    return int(model.addFrame(frame)), tcp_offset, str(tool.get("source", "not stated"))
+    return int(model.addFrame(frame)), tcp_offset, doc.tool.source
 
 
-def _read_stiffness(doc: dict, dof: int, yaml_path: Path) -> tuple[dict[str, np.ndarray], str]:
-    """Joint stiffness sets [N m/rad] by name, and their source."""
-    stiff_doc = doc.get("joint_stiffness_mnm_per_rad")
-    if not isinstance(stiff_doc, dict):
-        raise InputError(
-            f"{yaml_path}: missing 'joint_stiffness_mnm_per_rad' mapping "
-            "(e.g. cp: [...], dpp: [...])"
-        )
+def _nearest(name: str, names: list[str]) -> str:
+    close = difflib.get_close_matches(name, names, n=1)
+    return f" (did you mean '{close[0]}'?)" if close else f" (its frames: {', '.join(names[1:])})"
+
+
+def _read_stiffness(doc: RobotFile, names: tuple[str, ...], yaml_path: Path
+                    ) -> tuple[dict[str, np.ndarray], str]:
+    """Joint stiffness sets [N m/rad, N/m for prismatic joints] by name, and their source
+    (the plausible range is checked by the schema)."""
     stiffness = {}
-    for key, val in stiff_doc.items():
-        if key == "source":
-            continue
-        arr = _as_vector(val, dof, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}")
-        if np.any(arr <= 0):
-            raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad.{key} must be > 0")
-        _in_range(arr, STIFFNESS_RANGE_MNM, f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}",
-                  "MNm/rad")
-        stiffness[str(key)] = arr * _NM_PER_MNM
-    if not stiffness:
-        raise InputError(f"{yaml_path}: joint_stiffness_mnm_per_rad has no stiffness set")
-    return stiffness, str(stiff_doc.get("source", "not stated"))
+    for key, values in doc.stiffness_sets().items():
+        what = f"{yaml_path}: joint_stiffness_mnm_per_rad.{key}"
+        arr = _per_joint(values, names, what)
+        for name, v in zip(names, arr, strict=True):
+            if v <= 0:
+                raise InputError(f"{what}: joint {name} is {v:g}; stiffness must be > 0")
+            hint = stiffness_unit_mistake(float(v))
+            if hint:
+                raise InputError(f"{what}: joint {name} is {v:g} MN m/rad, {hint}")
+        stiffness[key] = arr * _NM_PER_MNM
+    return stiffness, str(doc.joint_stiffness_mnm_per_rad.get("source", "not stated"))
 
 
 def _read_position_limits(model: pin.Model, urdf_path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Joint position limits [rad] from the URDF's ``<limit>``."""
+    """Joint position limits [rad, m] from the URDF's ``<limit>``, naming a bad joint."""
     q_lower = np.asarray(model.lowerPositionLimit, dtype=float).copy()
     q_upper = np.asarray(model.upperPositionLimit, dtype=float).copy()
-    if np.any(~np.isfinite(q_lower)) or np.any(~np.isfinite(q_upper)) or np.any(q_lower >= q_upper):
-        raise InputError(f"{urdf_path}: every joint needs a finite <limit lower upper>")
+    for j in range(q_lower.size):
+        name = model.names[j + 1] if j + 1 < model.njoints else str(j)
+        if not (np.isfinite(q_lower[j]) and np.isfinite(q_upper[j])):
+            raise InputError(f"{urdf_path}: joint '{name}' needs a finite <limit lower upper>")
+        if q_lower[j] >= q_upper[j]:
+            raise InputError(f"{urdf_path}: joint '{name}' has lower limit {q_lower[j]:g} >= "
+                             f"upper limit {q_upper[j]:g}: swap them (URDF units: rad, m)")
     return q_lower, q_upper
-
-
-def _read_controller_and_warnings(doc: dict, yaml_path: Path) -> tuple[str, tuple[str, ...]]:
-    """Controller family and the data warnings (whitespace collapsed)."""
-    controller = doc.get("controller", "generic")
-    if controller not in CONTROLLERS:
-        raise InputError(f"{yaml_path}: controller must be one of {', '.join(CONTROLLERS)}, "
-                         f"got {controller!r}")
-    warnings = doc.get("warnings", [])
-    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
-        raise InputError(f"{yaml_path}: warnings must be a list of sentences (strings)")
-    return controller, tuple(" ".join(w.split()) for w in warnings)
 
 
 def load_robot(directory: str | Path) -> RobotModel:
     """Load a robot directory (``robot.yaml`` + the URDF it names) into a :class:`RobotModel`.
 
-    Phases: read ``robot.yaml``; kinematics (URDF); TCP frame; joint stiffness; joint limits
-    (speed, acceleration, position); controller and data warnings.
+    Phases: read and validate ``robot.yaml`` (:mod:`feedopt.robot.robot_file`); kinematics
+    (URDF); TCP frame; joint stiffness; joint limits (speed, acceleration, position);
+    controller axis convention.
 
     Raises
     ------
@@ -282,22 +288,22 @@ def load_robot(directory: str | Path) -> RobotModel:
     directory = Path(directory)
     doc, yaml_path = _read_robot_yaml(directory)
     model, urdf_path = _read_kinematics(doc, directory, yaml_path)
-    dof = int(model.nq)
+    scale, names = _scales(model)
     sources: dict[str, str] = {
-        "kinematics": str(doc.get("kinematics_source", f"URDF {urdf_path.name}")),
-        "joint_limits": str(doc.get("joint_limits_source", f"URDF {urdf_path.name} <limit>")),
+        "kinematics": doc.kinematics_source or f"URDF {urdf_path.name}",
+        "joint_limits": doc.joint_limits_source or f"URDF {urdf_path.name} <limit>",
     }
     tcp_frame_id, tcp_offset, sources["tool"] = _add_tcp_frame(model, doc, yaml_path, urdf_path)
-    stiffness, sources["stiffness"] = _read_stiffness(doc, dof, yaml_path)
-    vel, sources["joint_velocity"] = _values(doc, "joint_velocity_deg_s", dof, _RAD_PER_DEG,
-                                             yaml_path, VELOCITY_RANGE_DEG_S, "deg/s")
-    acc, sources["joint_acceleration"] = _values(doc, "joint_acceleration_deg_s2", dof,
-                                                 _RAD_PER_DEG, yaml_path,
-                                                 ACCELERATION_RANGE_DEG_S2, "deg/s^2")
+    stiffness, sources["stiffness"] = _read_stiffness(doc, names, yaml_path)
+    vel, sources["joint_velocity"] = _limit_values(
+        doc.joint_velocity_deg_s, "joint_velocity_deg_s", names, scale, yaml_path,
+        VELOCITY_RANGE_DEG_S, "deg/s")
+    acc, sources["joint_acceleration"] = _limit_values(
+        doc.joint_acceleration_deg_s2, "joint_acceleration_deg_s2", names, scale, yaml_path,
+        ACCELERATION_RANGE_DEG_S2, "deg/s^2")
     q_lower, q_upper = _read_position_limits(model, urdf_path)
-    controller, data_warnings = _read_controller_and_warnings(doc, yaml_path)
     return RobotModel(
-        name=str(doc.get("name", directory.name)),
+        name=doc.name or directory.name,
         model=model,
         tcp_frame_id=tcp_frame_id,
         q_lower=q_lower,
@@ -307,9 +313,10 @@ def load_robot(directory: str | Path) -> RobotModel:
         stiffness=stiffness,
         tcp_offset=tcp_offset,
         sources=sources,
-        joint_names=tuple(model.names[i] for i in range(1, model.njoints)),
-        controller=controller,
-        data_warnings=data_warnings,
+        joint_names=names,
+        controller=doc.controller.type,
+        data_warnings=tuple(" ".join(w.split()) for w in doc.warnings),
+        axes=axis_convention(doc.controller.axes, names, scale, yaml_path),
     )
 
 

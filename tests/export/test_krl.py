@@ -51,7 +51,7 @@ def _entry(pts):
     q = np.deg2rad([10, -75, 95, 0, 25, -5])
     return EntryExit(above_lead_in=lead_in + up, lead_in=lead_in, lead_out=lead_out,
                      retract=lead_out + up, q_above_lead_in=q, q_lead_in=q, q_lead_out=q,
-                     q_retract=q)
+                     q_retract=q, approach_axes_deg=np.rad2deg(q))
 
 
 def _write(tmp_path, name="thesis", **kw):

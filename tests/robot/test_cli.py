@@ -32,7 +32,7 @@ def test_robot_command_bad_input_exit_2(capsys, tmp_path):
     assert main(["robot", str(KUKA_DIR), "--q-deg=1,2,3"]) == 2
     assert "expected 6" in capsys.readouterr().err
     assert main(["robot", str(KUKA_DIR), "--q-deg=0,60,90,0,45,0"]) == 2
-    assert "joint 2" in capsys.readouterr().err
+    assert "axis 2 (joint joint_a2)" in capsys.readouterr().err
     assert main(["robot", str(KUKA_DIR), "--q-deg=0,-60,90,0,45,0", "--stiffness", "x"]) == 2
     assert main(["robot", str(tmp_path), "--q-deg=0,-60,90,0,45,0"]) == 2
     assert main(["robot", str(KUKA_DIR), "--q-deg=0,-60,90,0,45,0", "--force-n", "a,b"]) == 2

@@ -167,22 +167,45 @@ def _edit(d, old, new):
 @pytest.mark.parametrize(
     ("old", "new", "message"),
     [
-        ("urdf: kr500_3.urdf\n", "", "missing field 'urdf'"),
-        ("flange_frame: flange\n", "tcp_frame: nope\nflange_frame: flange\n",
-         "tcp_frame 'nope' is not a frame"),
+        ("urdf: kr500_3.urdf\n", "", "urdf: required field is missing"),
+        ("flange_frame: flange\n", "flange_frame: flange\ntcp_frame: nope\n",
+         "exactly one of flange_frame"),
+        ("flange_frame: flange\n", "tcp_frame: flange\n", "with tcp_frame the URDF frame is"),
+        ("  tcp_xyz_mm: [400.0, 0.0, 0.0]\n  tcp_rpy_deg: [0.0, -90.0, 0.0]\n",
+         "", "tcp_xyz_mm and tool.tcp_rpy_deg are required"),
+        ("flange_frame: flange\n", "flange_frame: flang\n", "did you mean 'flange'"),
+        ("flange_frame: flange\n", "flange_frame: base_link\n", "fixed to the base"),
         ("tool:\n  tcp_xyz_mm: [400.0, 0.0, 0.0]",
-         "tool: [1, 2]\nx_tool:\n  tcp_xyz_mm: [400.0, 0.0, 0.0]", "'tool' must be a mapping"),
+         "tool: [1, 2]\nx_tool:\n  tcp_xyz_mm: [400.0, 0.0, 0.0]", "x_tool: unknown field"),
         ("tcp_xyz_mm: [400.0, 0.0, 0.0]", "tcp_xyz_mm: [400.0, 0.0]", "tool.tcp_xyz_mm"),
+        ("tcp_xyz_mm: [400.0, 0.0, 0.0]", "tcp_xyz: [400.0, 0.0, 0.0]",
+         "tool.tcp_xyz: unknown field; did you mean 'tcp_xyz_mm'"),
         ("joint_stiffness_mnm_per_rad:", "stiffness_typo:",
-         "missing 'joint_stiffness_mnm_per_rad'"),
+         "joint_stiffness_mnm_per_rad: required field is missing"),
         ("dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0.14]", "dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0]",
-         "joint_stiffness_mnm_per_rad.dpp must be > 0"),
-        ("joint_velocity_deg_s:", "joint_speed_deg_s:", "missing field 'joint_velocity_deg_s'"),
+         "dpp: joint joint_a6 is 0; stiffness must be > 0"),
+        ("dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0.14]",
+         "dpp: [2.86e6, 2.36e6, 1.67e6, 0.24e6, 0.16e6, 0.14e6]", "looks like N m/rad"),
+        ("dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0.14]",
+         "dpp: [1.0e-12, 2.36, 1.67, 0.24, 0.16, 0.14]", "looks like a compliance"),
+        ("dpp: [2.86, 2.36, 1.67, 0.24, 0.16, 0.14]", "dpp: [2.86, 2.36, 1.67, 0.24, 0.16]",
+         "joint_stiffness_mnm_per_rad.dpp: expected 6 values, one per joint"),
+        ("joint_velocity_deg_s:", "joint_speed_deg_s:",
+         "joint_speed_deg_s: unknown field; did you mean 'joint_velocity_deg_s'"),
         ("values: [84.0, 79.0, 73.0, 76.0, 74.0, 123.0]\n  source: >-\n    CONSERVATIVE",
          "values: [84.0, 79.0, 73.0, 76.0, 74.0, -1]\n  source: >-\n    CONSERVATIVE",
-         "joint_acceleration_deg_s2 must be positive"),
-        ("controller: kuka", "controller: abb", "controller must be one of kuka, ur, generic"),
-        ("warnings:\n  - >-", "warnings:\n  - 3\n  - >-", "warnings must be a list of sentences"),
+         "joint_acceleration_deg_s2.values.5: Input should be greater than 0"),
+        ("  type: kuka\n", "  type: abb\n", "controller.type: Input should be 'kuka', 'ur' or"),
+        ("    offset_deg: [0, 0, 0, 0, 0, 0]", "    offset_deg: [0, -90, 90]",
+         "controller.axes.offset_deg: expected 6 values"),
+        ("    sign: [1, 1, 1, 1, 1, 1]", "    sign: [1, 1, 2, 1, 1, 1]",
+         "controller.axes.sign.2: Input should be 1 or -1"),
+        ("warnings:\n  - >-", "warning:\n  - >-",
+         "warning: unknown field; did you mean 'warnings'"),
+        ("warnings:\n  - >-", "warnings:\n  - 3\n  - >-",
+         "warnings.0: Input should be a valid string"),
+        ("name: kuka_kr500_3\n", "name: kuka_kr500_3\nmade_up_key: 1\n",
+         "made_up_key: unknown field"),
     ],
 )
 def test_each_load_phase_names_its_field(tmp_path, old, new, message):
@@ -195,6 +218,7 @@ def test_each_load_phase_names_its_field(tmp_path, old, new, message):
 def test_loads_with_an_existing_tcp_frame(tmp_path):
     d = _copy_robot(tmp_path)
     _edit(d, "flange_frame: flange\n", "tcp_frame: flange\n")
+    _edit(d, "  tcp_xyz_mm: [400.0, 0.0, 0.0]\n  tcp_rpy_deg: [0.0, -90.0, 0.0]\n", "")
     robot = load_robot(d)
     np.testing.assert_array_equal(robot.tcp_offset, np.eye(4))
     assert robot.sources["tool"].startswith("Assumed")  # tool.source is kept

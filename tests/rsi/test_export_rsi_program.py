@@ -119,4 +119,10 @@ def test_twelve_ms_cycle_uses_ipo(default_table) -> None:
 def test_only_for_kuka_controllers() -> None:
     blocker = early_check(SimpleNamespace(controller="ur", name="ur10"), None)
     assert blocker is not None and not blocker.warn and "KUKA" in blocker.reason
-    assert early_check(SimpleNamespace(controller="kuka", name="kr500"), None) is None
+    stated = SimpleNamespace(stated=True)
+    assert early_check(SimpleNamespace(controller="kuka", name="kr500",
+                                       axis_convention=stated), None) is None
+    # a KUKA robot whose robot.yaml states no axis convention: no program with URDF angles
+    unstated = early_check(SimpleNamespace(controller="kuka", name="kr210",
+                                           axis_convention=SimpleNamespace(stated=False)), None)
+    assert unstated is not None and unstated.warn and "controller.axes" in unstated.reason
