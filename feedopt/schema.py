@@ -72,6 +72,8 @@ def type_name(ann: object) -> str:
     origin, args = get_origin(ann), get_args(ann)
     if origin is Literal:
         return " | ".join(repr(a) for a in args)
+    if origin is dict:
+        return "mapping"
     if origin is list:
         return "list of numbers" if args and get_args(args[0])[:1] == (float,) else "list"
     if origin is Annotated:

@@ -4,6 +4,10 @@
 writes it to FILE. ``--schema`` takes no scenario: ``--schema x.yaml`` is refused (exit 2)
 rather than guessed at, because neither reading (validate it? ignore it?) nor writing
 (overwrite the scenario with the reference?) is what every user means.
+
+``feedopt validate --robot DIR`` checks a robot directory (robot.yaml against its schema and
+its URDF) and prints what feedopt reads from it; ``--robot-schema`` prints robot.yaml's field
+reference.
 """
 
 from __future__ import annotations
@@ -24,6 +28,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "instead, as Markdown; add --out FILE.md to write it to a file.",
     )
     p.add_argument("scenario", nargs="?", help="scenario YAML file (not with --schema)")
+    p.add_argument("--robot", metavar="DIR", help="check a robot directory (robot.yaml and its "
+                   "URDF) instead of a scenario")
+    p.add_argument("--robot-schema", action="store_true",
+                   help="print robot.yaml's field reference (with --out FILE.md: write it)")
     p.add_argument(
         "--schema",
         action="store_true",
@@ -39,9 +47,24 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from feedopt.errors import InputError
-    from feedopt.outfile import write_atomically
     from feedopt.scenario import schema_reference
 
+    chosen = [name for name, on in (("a scenario", bool(args.scenario)), ("--schema", args.schema),
+                                     ("--robot", args.robot is not None),
+                                     ("--robot-schema", args.robot_schema)) if on]
+    if len(chosen) > 1 and not (args.schema and args.scenario):
+        raise InputError(f"give one of a scenario, --schema, --robot DIR and --robot-schema; "
+                         f"got {' and '.join(chosen)}")
+    if args.robot_schema:
+        from feedopt.robot.robot_file import robot_reference
+
+        return _reference(args.out, robot_reference())
+    if args.robot is not None:
+        if args.out is not None:
+            raise InputError("--out writes a reference (--schema or --robot-schema); checking "
+                             "a robot writes nothing")
+        print(robot_summary(args.robot))
+        return 0
     if args.schema:
         if args.scenario:
             raise InputError(
@@ -50,13 +73,7 @@ def run(args: argparse.Namespace) -> int:
                 "'feedopt validate --schema --out reference.md' to write the reference to a "
                 "file"
             )
-        if args.out is not None:
-            target = _check_reference_out(args.out)
-            write_atomically(target, schema_reference())
-            print(f"wrote {args.out}")
-            return 0
-        print(schema_reference(), end="")
-        return 0
+        return _reference(args.out, schema_reference())
     if args.out is not None:
         raise InputError(
             "--out writes the --schema reference; validating a scenario writes nothing (use "
@@ -68,6 +85,48 @@ def run(args: argparse.Namespace) -> int:
 
     print(validate_scenario(args.scenario))
     return 0
+
+
+def _reference(out: str | None, text: str) -> int:
+    """Print ``text`` or write it to ``out`` (checked first); exit 0."""
+    from feedopt.outfile import write_atomically
+
+    if out is None:
+        print(text, end="")
+        return 0
+    write_atomically(_check_reference_out(out), text)
+    print(f"wrote {out}")
+    return 0
+
+
+def robot_summary(directory: str) -> str:
+    """What feedopt reads from a robot directory: joints, limits in the controller's axis
+    values, controller and its convention, TCP at the zero pose, stiffness sets, warnings."""
+    import numpy as np
+
+    from feedopt.robot.model import forward_kinematics, load_robot
+
+    robot = load_robot(directory)
+    axes = robot.axis_convention
+    ends = np.sort(axes.to_controller(np.stack([robot.q_lower, robot.q_upper])), axis=0)
+    units = ["mm" if u != np.pi / 180 else "deg" for u in axes.unit]
+    lines = [f"{directory}: ok — {robot.name}: {robot.dof} joints, controller "
+             f"{robot.controller}; {axes.describe()}"]
+    for j, name in enumerate(robot.joint_names):
+        lines.append(f"  {name}: {ends[0, j]:.2f} .. {ends[1, j]:.2f} {units[j]}, speed "
+                     f"{robot.joint_velocity_max[j] / axes.unit[j]:.4g} {units[j]}/s")
+    tcp = forward_kinematics(robot, np.clip(np.zeros(robot.dof), robot.q_lower,
+                                            robot.q_upper))
+    where = ", ".join(f"{v + 0.0:.1f}" for v in np.round(tcp[:3, 3] * 1e3, 1))
+    axis = ", ".join(f"{v + 0.0:.3f}" for v in np.round(tcp[:3, 2], 3))
+    lines.append(f"  TCP at the URDF's zero (clipped to the limits): ({where}) mm in the base "
+                 f"frame, tool axis ({axis})")
+    lines.append("  stiffness sets: " + ", ".join(robot.stiffness))
+    if robot.controller == "kuka" and not axes.stated:
+        lines.append("  note: no KRL or RSI program will be written until robot.yaml states "
+                     "controller.axes")
+    lines += [f"  warning: {w}" for w in robot.data_warnings]
+    return "\n".join(lines)
 
 
 def _check_reference_out(name: str) -> Path:
