@@ -22,7 +22,7 @@ from feedopt.errors import InputError, Terminated
 
 # Order in --help (module names); modules not listed here are appended alphabetically.
 _ORDER = ["run", "validate", "sweep", "compare", "path", "engagement", "forces", "calibrate",
-          "calibrate_stiffness", "robot", "stream", "rsi_sim"]
+          "calibrate_stiffness", "robot", "robot_init", "stream", "rsi_sim"]
 
 
 def _command_modules() -> list[str]:
@@ -71,10 +71,23 @@ def _install_signal_handlers() -> dict[int, object]:
     return previous
 
 
+#: Commands written as two words, as their parser is registered (``feedopt robot init``).
+_TWO_WORDS = {("robot", "init"): "robot-init"}
+
+
+def _two_word_commands(argv: list[str]) -> list[str]:
+    """``argv`` with a two-word command (:data:`_TWO_WORDS`) joined into its parser's name.
+    (A robot directory named ``init`` is then written ``./init``.)"""
+    first = next((i for i, a in enumerate(argv) if not a.startswith("-")), None)
+    if first is not None and tuple(argv[first:first + 2]) in _TWO_WORDS:
+        return [*argv[:first], _TWO_WORDS[tuple(argv[first:first + 2])], *argv[first + 2:]]
+    return argv
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``feedopt`` console script; returns the process exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_two_word_commands(sys.argv[1:] if argv is None else list(argv)))
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         print("\nfeedopt: error: give a command (see the list above)", file=sys.stderr)

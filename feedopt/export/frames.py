@@ -225,8 +225,16 @@ def header_lines(f: CellFrames) -> list[str]:
     if f.controller == "ur":
         tx, ty, tz, rx, ry, rz = f.tcp_pose_ur
         lines.append(f"UR TCP: set_tcp(p[{tx:g}, {ty:g}, {tz:g}, {rx:.6f}, {ry:.6f}, {rz:.6f}]) "
-                     "(m, rotation vector, in the tool flange frame); base = the controller's "
-                     "base frame (DH frame 0).")
+                     "(m, rotation vector, in the tool flange frame). Poses are in the URDF's "
+                     "base_link: the controller's Base when the URDF is built on UR's DH frame "
+                     "0 (the bundled UR10); ur_description's base_link is turned 180 deg about "
+                     "z from the controller's Base (its 'base' frame), so there X and Y change "
+                     "sign.")
+        return lines
+    if f.controller != "kuka":  # generic: no controller data to write, no KUKA names
+        lines.append(f"tool: TCP at {x:g}, {y:g}, {z:g} mm from the flange centre in "
+                     f"{f.flange_name} (the controller's own tool, base and load data are "
+                     "yours to set).")
         return lines
     lines += [
         f"TOOL_DATA = {f.tool.krl()} (TCP in {f.flange_name}: {x:g}, {y:g}, {z:g} mm from the "

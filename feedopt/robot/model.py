@@ -38,6 +38,7 @@ from feedopt.robot.robot_file import (
     parse_robot_file,
     stiffness_unit_mistake,
 )
+from feedopt.robot.urdf_chain import chain_model, mimic_joints
 from feedopt.textio import read_user_bytes
 from feedopt.units import MM
 from feedopt.yamlio import read_yaml
@@ -173,8 +174,11 @@ def _read_robot_yaml(directory: Path) -> tuple[RobotFile, Path]:
     return parse_robot_file(read_yaml(yaml_path, "robot file") or {}, yaml_path), yaml_path
 
 
-def _read_kinematics(doc: RobotFile, directory: Path, yaml_path: Path) -> tuple[pin.Model, Path]:
-    """The pinocchio model of the URDF that ``robot.yaml`` names, and its path."""
+def _read_kinematics(doc: RobotFile, directory: Path, yaml_path: Path
+                     ) -> tuple[pin.Model, Path, tuple[str, ...]]:
+    """The pinocchio model of the arm in the URDF that ``robot.yaml`` names (joints that do
+    not move the flange or TCP frame locked, :mod:`feedopt.robot.urdf_chain`), the URDF's
+    path and the names of the locked joints."""
     urdf = doc.urdf
     if not urdf.strip():
         raise InputError(f"{yaml_path}: urdf must be the file name of the URDF, got {urdf!r}")
@@ -185,18 +189,22 @@ def _read_kinematics(doc: RobotFile, directory: Path, yaml_path: Path) -> tuple[
         raise InputError(f"{yaml_path}: urdf {urdf!r}: {exc.strerror or exc}") from None
     if not found and not os.path.lexists(urdf_path):
         raise InputError(f"{yaml_path}: urdf file '{urdf_path}' does not exist")
-    read_user_bytes(urdf_path, "URDF")  # a FIFO, device, loop or oversized file: its message
+    raw = read_user_bytes(urdf_path, "URDF")  # a FIFO, device, loop, oversized: its message
     try:
         model = pin.buildModelFromUrdf(str(urdf_path))
     except (RuntimeError, ValueError) as exc:
         raise InputError(f"{urdf_path}: pinocchio could not read the URDF: {exc}") from exc
+    frame = doc.tcp_frame or doc.flange_frame or ""
+    locked: tuple[str, ...] = ()
+    if model.existFrame(frame):  # else _add_tcp_frame names the frames there are
+        model, locked = chain_model(model, frame, urdf_path, mimic_joints(raw))
     if model.nv != model.nq:
         odd = [model.names[j] for j in range(1, model.njoints)
                if model.joints[j].nq != model.joints[j].nv]
         raise InputError(f"{urdf_path}: joint(s) {', '.join(odd)} are continuous (unbounded "
                          "revolute); only revolute joints with <limit lower upper> and "
                          "prismatic joints are supported: give each a finite range")
-    return model, urdf_path
+    return model, urdf_path, locked
 
 
 def _add_tcp_frame(
@@ -287,10 +295,12 @@ def load_robot(directory: str | Path) -> RobotModel:
     """
     directory = Path(directory)
     doc, yaml_path = _read_robot_yaml(directory)
-    model, urdf_path = _read_kinematics(doc, directory, yaml_path)
+    model, urdf_path, locked = _read_kinematics(doc, directory, yaml_path)
     scale, names = _scales(model)
     sources: dict[str, str] = {
-        "kinematics": doc.kinematics_source or f"URDF {urdf_path.name}",
+        "kinematics": (doc.kinematics_source or f"URDF {urdf_path.name}") + (
+            f"; joints locked (they do not move the tool): {', '.join(locked)}" if locked
+            else ""),
         "joint_limits": doc.joint_limits_source or f"URDF {urdf_path.name} <limit>",
     }
     tcp_frame_id, tcp_offset, sources["tool"] = _add_tcp_frame(model, doc, yaml_path, urdf_path)

@@ -56,7 +56,7 @@ def test_a_good_robot_prints_what_is_read(capsys):
     (("flange_frame: flange", "flange_frame: base_link"), None, "fixed to the base"),
     (("flange_frame: flange", "flange_frame: flang"), None, "did you mean 'flange'"),
     (None, ('<joint name="joint_a6" type="revolute">', '<joint name="joint_a6" '
-            'type="continuous">'), "joint(s) joint_a6 are continuous"),
+            'type="continuous">'), "joint 'joint_a6' is continuous"),
     (None, ('lower="-2.2689280275926285" upper="0.3490658503988659"',
             'lower="0.3490658503988659" upper="-2.2689280275926285"'),
      "joint 'joint_a2' has lower limit 0.349066 >= upper limit -2.26893: swap them"),

@@ -190,3 +190,22 @@ def test_a_flange_frame_of_unknown_convention_is_refused() -> None:
     rot, axis = controller_flange(kuka)
     assert axis == "+x"
     np.testing.assert_allclose(rot[:3, :3] @ [0, 0, 1], [1, 0, 0], atol=1e-12)
+
+
+def test_headers_of_a_generic_robot_carry_no_kuka_data(tmp_path):
+    """An ABB, FANUC or any robot without a KUKA or UR controller: no TOOL_DATA, BASE_DATA,
+    LOAD_DATA or $ROBROOT in its export headers (issue 29), the TCP stated in the flange."""
+    import shutil
+
+    from feedopt.export.frames import frames_header_lines
+
+    d = tmp_path / "robot"
+    shutil.copytree(ROOT / "robots" / "kuka_kr500_3", d)
+    text = (d / "robot.yaml").read_text().replace("  type: kuka\n", "  type: generic\n", 1)
+    (d / "robot.yaml").write_text(text)
+    lines = "\n".join(frames_header_lines(load_robot(d)))
+    for kuka in ("TOOL_DATA", "BASE_DATA", "LOAD_DATA", "$ROBROOT"):
+        assert kuka not in lines
+    assert "TCP at 0, 0, 400 mm from the flange centre" in lines
+    ur = "\n".join(frames_header_lines(load_robot(ROOT / "robots" / "ur10")))
+    assert "turned 180 deg about z" in ur and "TOOL_DATA" not in ur

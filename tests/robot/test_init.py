@@ -1,0 +1,158 @@
+"""``feedopt robot init`` on published URDFs (issue 29), checked with an independent FK.
+
+The reference FK reads the URDF's XML here (joint origins, axes, types) and multiplies the
+homogeneous transforms along the chain with numpy: no pinocchio. It is compared with the FK
+feedopt computes from the written robot directory (pinocchio, TCP added on the flange), at
+random joint values within the limits. The TCP must sit on the last joint's axis, out of the
+flange, with its +z pointing back into the spindle.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from feedopt.cli import main
+from feedopt.robot.model import forward_kinematics, load_robot
+from feedopt.runner import run_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+PUBLISHED = ROOT / "tests" / "data" / "robots" / "published"
+URDFS = {  # file -> (joints, flange, CAD offset of the flange [mm], joints locked)
+    PUBLISHED / "irb2400.urdf": (6, "tool0", 0.0, ()),
+    PUBLISHED / "irb6640_185_280.urdf": (6, "tool0", 0.0, ("joint_cylinder", "joint_piston")),
+    PUBLISHED / "kr120r2500pro.urdf": (6, "tool0", 0.0, ()),
+    PUBLISHED / "lbr_iiwa_14_r820.urdf": (7, "tool0", 0.0, ()),
+    ROOT / "tests" / "data" / "robots" / "kuka_kr210" / "kr210l150.urdf": (6, "tool0", 0.239,
+                                                                           ()),
+}
+
+
+def _rpy(r: float, p: float, y: float) -> np.ndarray:
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
+    k = axis / np.linalg.norm(axis)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
+
+
+def urdf_fk(urdf: Path, link: str, q_by_joint: dict[str, float]) -> np.ndarray:
+    """Pose (4, 4) of ``link`` in the root link: the URDF read and multiplied by hand."""
+    joints = {j.find("child").get("link"): j for j in ET.parse(urdf).getroot().iter("joint")}
+    pose = np.eye(4)
+    while link in joints:
+        j = joints[link]
+        origin = j.find("origin")
+        xyz = [float(v) for v in (origin.get("xyz", "0 0 0") if origin is not None
+                                  else "0 0 0").split()]
+        rpy = [float(v) for v in (origin.get("rpy", "0 0 0") if origin is not None
+                                  else "0 0 0").split()]
+        t = np.eye(4)
+        t[:3, :3], t[:3, 3] = _rpy(*rpy), xyz
+        if j.get("type") in ("revolute", "continuous"):
+            axis = np.array([float(v) for v in j.find("axis").get("xyz").split()])
+            m = np.eye(4)
+            m[:3, :3] = _axis_angle(axis, q_by_joint.get(j.get("name"), 0.0))
+            t = t @ m
+        pose = t @ pose
+        link = j.find("parent").get("link")
+    return pose
+
+
+@pytest.mark.parametrize("urdf", list(URDFS), ids=lambda p: p.stem)
+def test_init_writes_a_robot_whose_fk_matches_the_urdf(tmp_path, capsys, urdf):
+    dof, flange, off_mm, locked = URDFS[urdf]
+    out = tmp_path / "robot"
+    assert main(["robot", "init", str(urdf), "--out", str(out), "--tool-length-mm", "250"]) == 0
+    printed = capsys.readouterr().out
+    assert f"flange '{flange}'" in printed and f"origin {off_mm:.3f} mm off" in printed
+    assert "still to fill in robot.yaml" in printed and "joint_stiffness" in printed
+    for name in locked:
+        assert name in printed
+    assert sorted(p.name for p in out.iterdir()) == sorted([urdf.name, "robot.yaml"])
+    assert "PLACEHOLDER" in (out / "robot.yaml").read_text()
+    robot = load_robot(out)
+    assert robot.dof == dof and any("PLACEHOLDER" in w for w in robot.data_warnings)
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q = rng.uniform(robot.q_lower, robot.q_upper)
+        tcp = forward_kinematics(robot, q)
+        flange_pose = urdf_fk(urdf, flange,  # ROS-I frames are links
+                              dict(zip(robot.joint_names, q, strict=True)))
+        np.testing.assert_allclose(tcp, flange_pose @ robot.tcp_offset, atol=1e-9)
+        # the tool: 250 mm out along the last joint's axis, TCP +z back into the spindle
+        last = urdf_fk(urdf, _child_link(urdf, robot.joint_names[-1]),
+                       dict(zip(robot.joint_names, q, strict=True)))
+        out_dir = tcp[:3, 3] - flange_pose[:3, 3]
+        assert np.linalg.norm(out_dir) == pytest.approx(0.25, abs=1e-9)
+        np.testing.assert_allclose(tcp[:3, 2], -out_dir / 0.25, atol=1e-9)
+        assert (tcp[:3, 3] - last[:3, 3]) @ out_dir > 0  # out of the flange, not into the arm
+
+
+def _child_link(urdf: Path, joint: str) -> str:
+    """The child link of ``joint`` (where the joint's axis is)."""
+    for j in ET.parse(urdf).getroot().iter("joint"):
+        if j.get("name") == joint:
+            return j.find("child").get("link")
+    raise KeyError(joint)
+
+
+def test_a_published_robot_from_init_plans_and_verifies(tmp_path, quick_scenario):
+    """The IRB 2400 from its URDF, straight from robot init, runs the thesis cut."""
+    out = tmp_path / "irb2400"
+    assert main(["robot", "init", str(PUBLISHED / "irb2400.urdf"), "--out", str(out)]) == 0
+    # FK of the written robot at (0, 20, 10, 0, 60, 0) deg: TCP at (1062.5, 0, 731.9) mm with
+    # the tool pointing down; the cut starts 62.5 mm short of it
+    p = quick_scenario("linear_peripheral", robot__directory=str(out),
+                       robot__start_configuration_deg=[0, 20, 10, 0, 60, 0],
+                       workpiece__position_mm=[1000.0, 0.0, 731.9], path__spacing_mm=1.0,
+                       schedule__laws=["jerk"])
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
+    jerk = result.summary["laws"]["jerk"]
+    assert jerk["verified"] and jerk["exported"]
+    assert any("PLACEHOLDER" in w for w in result.summary["warnings"])
+
+
+def _variant(tmp_path: Path, source: Path, old: str, new: str) -> Path:
+    text = source.read_text()
+    assert old in text, old
+    p = tmp_path / source.name
+    p.write_text(text.replace(old, new, 1))
+    return p
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ('<joint name="joint_a3" type="revolute">',
+     '<joint name="joint_a3" type="revolute">\n    <mimic joint="joint_a2"/>',
+     "joint 'joint_a3' mimics 'joint_a2' on the arm's own chain"),
+    ('<joint name="joint_a5" type="revolute">', '<joint name="joint_a5" type="continuous">',
+     "joint 'joint_a5' is continuous"),
+])
+def test_init_refuses_what_feedopt_cannot_plan_by_name(tmp_path, capsys, old, new, message):
+    urdf = _variant(tmp_path, PUBLISHED / "kr120r2500pro.urdf", old, new)
+    assert main(["robot", "init", str(urdf), "--out", str(tmp_path / "r")]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_init_refuses_a_flange_off_the_last_axis_and_a_used_folder(tmp_path, capsys):
+    kr120 = PUBLISHED / "kr120r2500pro.urdf"
+    assert main(["robot", "init", str(kr120), "--out", str(tmp_path / "r"), "--flange",
+                 "base_link"]) == 2
+    assert "fixed to the base" in capsys.readouterr().err
+    used = tmp_path / "used"
+    used.mkdir()
+    (used / "notes.txt").write_text("mine")
+    assert main(["robot", "init", str(kr120), "--out", str(used)]) == 2
+    assert "already holds files" in capsys.readouterr().err
+    assert sorted(p.name for p in used.iterdir()) == ["notes.txt"]
+    assert main(["robot", "init", str(kr120), "--out", str(PUBLISHED)]) == 2  # its own folder
+    assert not (PUBLISHED / "robot.yaml").exists()
