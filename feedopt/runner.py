@@ -41,7 +41,7 @@ from feedopt.process.tool import load_tool
 from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.ik import UnreachableError
-from feedopt.robot.model import RobotModel, load_robot
+from feedopt.robot.model import RobotModel, load_robot, require_six_axes
 from feedopt.robot.placement_search import suggest_workpiece_position
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import (
@@ -266,7 +266,8 @@ def prepare(
                                            front.times)
 
     t0 = time.perf_counter()
-    robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
+    robot = require_six_axes(load_robot(resolve(base_dir, scenario.robot.directory,
+                                                "robot directory")))
     x_axes = _x_axes(scenario, placement)
     with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
             robot, scenario, samples):
@@ -806,7 +807,7 @@ def validate_scenario(scenario_path: str | Path) -> str:
     scenario, base_dir = load_scenario(scenario_path)
     tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))  # files in this order
     load_coefficients(resolve(base_dir, scenario.material, "material file"))
-    load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
+    require_six_axes(load_robot(resolve(base_dir, scenario.robot.directory, "robot directory")))
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)

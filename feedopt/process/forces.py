@@ -429,11 +429,16 @@ def _add_pieces(base: ForceSplit, pieces: ForceSplit, sample: np.ndarray) -> For
     """``base`` (the samples on one interval, pieced samples at zero force) plus the forces
     of the pieces added to their samples (``sample`` non-decreasing)."""
     starts = np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]])
-    owners = sample[starts]
+    counts = np.diff(np.r_[starts, sample.size])
     out = []
     for name in ("cutting", "edge", "cutting_torque", "edge_torque"):
         arr = np.array(getattr(base, name))
-        arr[owners] += np.add.reduceat(getattr(pieces, name), starts, axis=0)
+        part = getattr(pieces, name)
+        # rank by rank (a sample has a few pieces): ((0 + p0) + p1) + ... on the zero base of
+        # a pieced sample, 2-3x faster than np.add.reduceat over (pieces, angles, 3) rows
+        for rank in range(int(counts.max(initial=0))):
+            has = counts > rank
+            arr[sample[starts[has]]] += part[starts[has] + rank]
         out.append(arr)
     return ForceSplit(base.angles, *out)
 

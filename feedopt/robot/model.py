@@ -330,6 +330,18 @@ def load_robot(directory: str | Path) -> RobotModel:
     )
 
 
+def require_six_axes(robot: RobotModel) -> RobotModel:
+    """``robot`` if a run can plan it (6 joints), else InputError naming its joints: a
+    7-axis arm or a robot on a linear track is read and checked, not planned yet."""
+    if robot.dof != 6:
+        raise InputError(
+            f"robot {robot.name} has {robot.dof} joints ({', '.join(robot.joint_names)}); "
+            "feedopt plans 6-axis arms, whose one free degree of freedom is the rotation "
+            "about the tool axis. A 7-axis arm or a robot on a linear track can be read and "
+            "checked (feedopt validate --robot, feedopt robot) but not planned yet")
+    return robot
+
+
 # --------------------------------------------------------------------------- kinematics
 
 

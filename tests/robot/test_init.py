@@ -156,3 +156,17 @@ def test_init_refuses_a_flange_off_the_last_axis_and_a_used_folder(tmp_path, cap
     assert sorted(p.name for p in used.iterdir()) == ["notes.txt"]
     assert main(["robot", "init", str(kr120), "--out", str(PUBLISHED)]) == 2  # its own folder
     assert not (PUBLISHED / "robot.yaml").exists()
+
+
+def test_a_seven_axis_arm_is_read_but_a_run_says_it_plans_six(tmp_path, quick_scenario, capsys):
+    """The iiwa from robot init validates as a robot; a scenario with it is refused (exit 2)
+    naming its 7 joints, not with a failure inside the planner."""
+    out = tmp_path / "iiwa"
+    assert main(["robot", "init", str(PUBLISHED / "lbr_iiwa_14_r820.urdf"), "--out",
+                 str(out)]) == 0
+    assert main(["validate", "--robot", str(out)]) == 0
+    capsys.readouterr()
+    p = quick_scenario("linear_peripheral", robot__directory=str(out))
+    assert main(["validate", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "has 7 joints (joint_a1" in err and "plans 6-axis arms" in err
