@@ -41,7 +41,7 @@ from feedopt.process.tool import load_tool
 from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.ik import UnreachableError
-from feedopt.robot.model import RobotModel, load_robot, require_six_axes
+from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggest_workpiece_position
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
 from feedopt.scenario import (
@@ -266,8 +266,8 @@ def prepare(
                                            front.times)
 
     t0 = time.perf_counter()
-    robot = require_six_axes(load_robot(resolve(base_dir, scenario.robot.directory,
-                                                "robot directory")))
+    robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
+    _check_redundancy(robot, scenario)
     x_axes = _x_axes(scenario, placement)
     with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
             robot, scenario, samples):
@@ -440,10 +440,25 @@ def plan_and_verify(
     return {law: results[law] for law in laws if law in results}
 
 
+def _check_redundancy(robot: RobotModel, scenario: Scenario) -> None:
+    """InputError for ``robot.redundancy: optimise`` on a robot other than a 6-axis arm (its
+    search is over the rotation about the tool axis alone; a 7th axis or a track is resolved
+    by the weighted nearest IK, :mod:`feedopt.robot.ik`)."""
+    if scenario.robot.redundancy == "optimise" and robot.dof != 6:
+        raise InputError(f"robot.redundancy: optimise searches the rotation about the tool axis "
+                         f"of a 6-axis arm; robot {robot.name} has {robot.dof} joints: use "
+                         "redundancy: nearest (its extra axes follow the weighted nearest IK)")
+
+
 def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
     """``robot.start_configuration_deg``, the controller's axis values (robot.yaml
     ``controller.axes``), as the URDF's joints [rad]."""
-    return robot.axis_convention.from_controller(scenario.robot.start_configuration_deg)
+    given = scenario.robot.start_configuration_deg
+    if len(given) != robot.dof:
+        raise InputError(f"robot.start_configuration_deg has {len(given)} values; robot "
+                         f"{robot.name} has {robot.dof} joints ({', '.join(robot.joint_names)}): "
+                         "give one value per joint, in the controller's axis values")
+    return robot.axis_convention.from_controller(given)
 
 
 def _x_axes(scenario: Scenario, placement: Placement) -> np.ndarray | None:
@@ -631,7 +646,8 @@ def write_outputs(
             pending.append((law, entry, job))
         times[("export", law)] = time.perf_counter() - t0
         if report:
-            series.append(law_series(law, problem.s, ver, samples))
+            series.append(law_series(law, problem.s, ver, samples,
+                                     prepared.robot.axis_convention.unit))
     if report:  # drawn in a forked child while the exporters write (feedopt.background)
         t_report = time.perf_counter()
         material = prepared.process.material
@@ -642,7 +658,7 @@ def write_outputs(
                                       prepared.placement))
         draw = partial(write_run_report, out_dir, sc.name, summary, prepared.positions,
                        prepared.samples.segment, problem, series, sc.deflection.limit_mm,
-                       engagement, red)
+                       engagement, red, prepared.robot.axis_convention.unit)
         if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
             drawing.submit(draw.func, *draw.args)  # the child has imported matplotlib
         else:  # a long path: fork now and share the data instead of sending a copy
@@ -807,7 +823,8 @@ def validate_scenario(scenario_path: str | Path) -> str:
     scenario, base_dir = load_scenario(scenario_path)
     tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))  # files in this order
     load_coefficients(resolve(base_dir, scenario.material, "material file"))
-    require_six_axes(load_robot(resolve(base_dir, scenario.robot.directory, "robot directory")))
+    _check_redundancy(load_robot(resolve(base_dir, scenario.robot.directory,
+                                         "robot directory")), scenario)
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)

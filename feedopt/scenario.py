@@ -74,10 +74,11 @@ class RobotSection(_Strict):
                            "resolve against the scenario file")
     stiffness: Literal["dpp", "cp"] = Field("dpp", description="joint stiffness set of thesis "
                                             "Table 3.4 (DPP is what the thesis uses, Eq. 3.20)")
-    start_configuration_deg: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] = (
-        Field(description="joint values that seed IK at the first sample: the controller's "
-              "axis values in deg, as on its pendant (robot.yaml controller.axes converts "
-              "them; the URDF's joint angles when it states no axes)")
+    start_configuration_deg: Annotated[list[FiniteFloat], Field(min_length=1, max_length=12)] = (
+        Field(description="joint values that seed IK at the first sample, one per joint: the "
+              "controller's axis values in deg (mm for a prismatic joint), as on its pendant "
+              "(robot.yaml controller.axes converts them; the URDF's joint angles when it "
+              "states no axes)")
     )
     fix_tool_rotation: bool = Field(False, description="fix the rotation about the tool axis "
                                     "(6-DoF task); default: free, the milling 5-DoF task")

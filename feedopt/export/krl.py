@@ -59,6 +59,7 @@ from feedopt.export.frames import (
 )
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
 from feedopt.robot.axes import UNSTATED_AXES
+from feedopt.robot.model import six_axes_only
 from feedopt.units import MM
 
 MOTIONS = ("SLIN", "SPL")
@@ -557,6 +558,8 @@ def early_check(robot, path) -> Blocker | None:
                        warn=False)
     if not robot.axis_convention.stated:
         return Blocker(f"no KRL program: {UNSTATED_AXES}")
+    if six_axes_only(robot, "KRL program"):
+        return Blocker(six_axes_only(robot, "KRL program"))
     n_segments = segment_count(path)
     if n_segments > MAX_SEGMENTS:
         return Blocker(f"no KRL program: the path's key points make {n_segments} spline "

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -29,21 +30,19 @@ from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
 from feedopt.units import MM, MM_PER_M
 
-COLUMNS: tuple[str, ...] = (
-    "t_s",
-    "x_mm",
-    "y_mm",
-    "z_mm",
-    "a_deg",
-    "b_deg",
-    "c_deg",
-    *(f"q{i}_deg" for i in range(1, 7)),
-    "s_mm",
-    "feed_mm_s",
-    "accel_mm_s2",
-    "jerk_mm_s3",
-    "deflection_mm",
-)
+#: Most joint columns an RSI CSV may have (a 6-axis arm on a track and a turntable is 8).
+MAX_JOINTS = 12
+
+
+def columns(joints: int = 6) -> tuple[str, ...]:
+    """The header of an RSI CSV of a robot with ``joints`` joints (q1_deg..qN_deg)."""
+    return ("t_s", "x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg",
+            *(f"q{i}_deg" for i in range(1, joints + 1)),
+            "s_mm", "feed_mm_s", "accel_mm_s2", "jerk_mm_s3", "deflection_mm")
+
+
+#: The header of a 6-axis robot's RSI CSV (what RSI streaming reads).
+COLUMNS: tuple[str, ...] = columns(6)
 
 _HEADER_DOC = (
     "feedopt RSI trajectory: one row per RSI cycle.",
@@ -51,7 +50,8 @@ _HEADER_DOC = (
     "x_mm, y_mm, z_mm: TCP position in the robot base frame [mm].",
     "a_deg, b_deg, c_deg: TCP orientation, KUKA A,B,C = intrinsic Z-Y'-X'' Euler angles [deg]"
     " (R = Rz(A) Ry(B) Rx(C)); A and C are unwrapped along the trajectory (continuous).",
-    "q1_deg..q6_deg: joint angles [deg] whose forward kinematics gives the pose above.",
+    "q1_deg..qN_deg: joint values [deg; mm for a prismatic joint] whose forward kinematics "
+    "gives the pose above (one column per joint; the convention is stated below).",
     "s_mm: arc length along the tool path [mm]; feed_mm_s = ds/dt [mm/s];"
     " accel_mm_s2 = d2s/dt2; jerk_mm_s3 = d3s/dt3.",
     "deflection_mm: predicted static TCP deflection at the commanded feed [mm].",
@@ -61,7 +61,7 @@ _HEADER_DOC = (
 
 @dataclass(frozen=True)
 class RsiTable:
-    """The columns of an RSI CSV in file units (mm, deg, s); ``q_deg`` is (n, 6)."""
+    """The columns of an RSI CSV in file units (mm, deg, s); ``q_deg`` is (n, joints)."""
 
     t_s: np.ndarray
     x_mm: np.ndarray
@@ -83,7 +83,10 @@ class RsiTable:
             raise ValueError(f"RsiTable.t_s must be 1-D, got shape {np.shape(self.t_s)}")
         for f in fields(self):
             arr = np.array(getattr(self, f.name), dtype=np.float64)  # private, read-only copy
-            want = (n, 6) if f.name == "q_deg" else (n,)
+            want = (n,)
+            if f.name == "q_deg":
+                joints = arr.shape[1] if arr.ndim == 2 else 0
+                want = (n, joints if 1 <= joints <= MAX_JOINTS else 6)
             if arr.shape != want:
                 raise ValueError(f"RsiTable.{f.name} has shape {arr.shape}, expected {want}")
             arr.flags.writeable = False
@@ -93,7 +96,7 @@ class RsiTable:
         return int(self.t_s.shape[0])
 
     def as_matrix(self) -> np.ndarray:
-        """All columns as an (n, 18) float array in :data:`COLUMNS` order."""
+        """All columns as an (n, 12 + joints) float array in :func:`columns` order."""
         return np.column_stack(
             [
                 self.t_s,
@@ -116,10 +119,11 @@ class RsiTable:
     def from_matrix(cls, m: np.ndarray) -> RsiTable:
         """Inverse of :meth:`as_matrix`."""
         m = np.asarray(m, dtype=np.float64)
-        if m.ndim != 2 or m.shape[1] != len(COLUMNS):
-            raise ValueError(f"expected an (n, {len(COLUMNS)}) matrix, got {m.shape}")
+        joints = m.shape[1] - 12 if m.ndim == 2 else 0
+        if not 1 <= joints <= MAX_JOINTS:
+            raise ValueError(f"expected an (n, 12 + joints) matrix, got {np.shape(m)}")
         c = [m[:, i] for i in range(m.shape[1])]
-        return cls(*c[:7], m[:, 7:13], *c[13:])
+        return cls(*c[:7], m[:, 7:7 + joints], *c[7 + joints:])
 
     def equals(self, other: RsiTable) -> bool:
         """Bit-exact equality of every column (``-0.0 != 0.0`` here, NaN == NaN)."""
@@ -192,13 +196,14 @@ def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = (
     m = table.as_matrix()
     if m.shape[0] == 0:
         raise ValueError(f"RSI table is empty; refusing to write {path}")
-    refuse_non_finite(m, COLUMNS, "RSI table", path)
+    header = columns(table.q_deg.shape[1])
+    refuse_non_finite(m, header, "RSI table", path)
     lines = [f"# {c}" for c in _HEADER_DOC]
     lines.append(f"# {_cycle_comment(table.t_s)}")
     for c in comments:
         ascii_text = str(c).encode("ascii", "backslashreplace").decode("ascii")
         lines.extend(f"# {part}" for part in ascii_text.splitlines() or [""])
-    lines.append(",".join(COLUMNS))
+    lines.append(",".join(header))
     # Blocks of rows are written as they are formatted: the file is never held in memory
     # (11 h at 4 ms is 2.5 GB).
     path = Path(path)
@@ -208,20 +213,35 @@ def write_rsi_csv(path: str | Path, table: RsiTable, comments: Sequence[str] = (
     return path
 
 
-def _raise_bad_field(path: Path, lineno: int, parts: list[str]) -> None:
+def _raise_bad_field(path: Path, lineno: int, parts: list[str],
+                     header: tuple[str, ...]) -> None:
     """Say which field of a data row is not a finite number."""
     for i, p in enumerate(parts):
         try:
             v = float(p)
         except ValueError:
             raise InputError(
-                f"{path}:{lineno}: column {COLUMNS[i]!r} (field {i + 1}) is {p!r}, not a number"
+                f"{path}:{lineno}: column {header[i]!r} (field {i + 1}) is {p!r}, not a number"
             ) from None
         if not math.isfinite(v):
             raise InputError(
-                f"{path}:{lineno}: column {COLUMNS[i]!r} (field {i + 1}) is {p!r}; "
+                f"{path}:{lineno}: column {header[i]!r} (field {i + 1}) is {p!r}; "
                 "values must be finite"
             )
+
+
+def _check_header(path: Path, lineno: int, parts: list[str], expected: tuple[str, ...]
+                  ) -> None:
+    """InputError naming the first header column that differs from ``expected``."""
+    if tuple(parts) == expected:
+        return
+    for i, (got, want) in enumerate(zip(parts, expected, strict=False)):
+        if got != want:
+            raise InputError(
+                f"{path}:{lineno}: header column {i + 1} is {got!r}, expected {want!r} "
+                f"(header must be: {','.join(expected)})")
+    raise InputError(f"{path}:{lineno}: header has {len(parts)} columns, expected "
+                     f"{len(expected)} ({','.join(expected)})")
 
 
 def read_rsi_csv(path: str | Path) -> RsiTable:
@@ -238,7 +258,7 @@ def read_rsi_csv(path: str | Path) -> RsiTable:
     header_line = None
     rows: list[list[float]] = []
     line_numbers: list[int] = []
-    ncol = len(COLUMNS)
+    expected = COLUMNS
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
@@ -246,29 +266,21 @@ def read_rsi_csv(path: str | Path) -> RsiTable:
         parts = [p.strip() for p in line.split(",")]
         if header_line is None:
             header_line = lineno
-            if tuple(parts) != COLUMNS:
-                for i, (got, want) in enumerate(zip(parts, COLUMNS, strict=False)):
-                    if got != want:
-                        raise InputError(
-                            f"{path}:{lineno}: header column {i + 1} is {got!r}, expected "
-                            f"{want!r} (header must be: {','.join(COLUMNS)})"
-                        )
-                raise InputError(
-                    f"{path}:{lineno}: header has {len(parts)} columns, expected {ncol} "
-                    f"({','.join(COLUMNS)})"
-                )
+            joints = sum(1 for p in parts if re.fullmatch(r"q\d+_deg", p))
+            expected = columns(joints) if 1 <= joints <= MAX_JOINTS else COLUMNS
+            _check_header(path, lineno, parts, expected)
             continue
-        if len(parts) != ncol:
+        if len(parts) != len(expected):
             raise InputError(
-                f"{path}:{lineno}: row has {len(parts)} fields, expected {ncol} "
-                f"(one per column {','.join(COLUMNS)})"
+                f"{path}:{lineno}: row has {len(parts)} fields, expected {len(expected)} "
+                f"(one per column {','.join(expected)})"
             )
         try:
             values = list(map(float, parts))
         except ValueError:
             values = None
         if values is None or not all(map(math.isfinite, values)):
-            _raise_bad_field(path, lineno, parts)
+            _raise_bad_field(path, lineno, parts, expected)
         rows.append(values)
         line_numbers.append(lineno)
     if header_line is None:

@@ -43,6 +43,7 @@ from feedopt.errors import InputError
 from feedopt.export.frames import APPROACH_MM, cell_frames, header_lines, joints_at_offsets
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
 from feedopt.robot.axes import UNSTATED_AXES
+from feedopt.robot.model import six_axes_only
 from feedopt.rsi.corrections import (
     CorrectionMode,
     CorrectionPlan,
@@ -272,6 +273,8 @@ def early_check(robot, path) -> Blocker | None:
                        warn=False)
     if not robot.axis_convention.stated:
         return Blocker(f"no RSI host program: {UNSTATED_AXES}")
+    if six_axes_only(robot, "RSI host program"):
+        return Blocker(six_axes_only(robot, "RSI host program"))
     return None
 
 

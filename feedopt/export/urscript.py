@@ -38,6 +38,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.export.frames import cell_frames, entry_exit, header_lines
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.robot.model import six_axes_only
 
 #: servoj time per set-point [s]: the CB3 real-time cycle (125 Hz), valid on e-Series too.
 CYCLE_S = 0.008
@@ -166,7 +167,8 @@ def early_check(robot, path) -> Blocker | None:
     if robot.controller != "ur":
         return Blocker(f"no URScript: robot {robot.name} has controller '{robot.controller}' "
                        "(robot.yaml); URScript is for Universal Robots controllers", warn=False)
-    return None
+    why = six_axes_only(robot, "URScript")
+    return None if why is None else Blocker(why)
 
 
 def export_urscript(job: ExportJob, out_dir: Path, cycle_s: float = CYCLE_S,

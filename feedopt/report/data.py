@@ -49,6 +49,12 @@ MAX_SUMMARY_BYTES = 16 * 2**20
 _LAW_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9._-]{0,63}$")
 
 
+def _joints(a) -> int:
+    """The joint count of an (m, joints) array (6 when it is not one: the check then says)."""
+    shape = np.shape(a)
+    return shape[1] if len(shape) == 2 and 1 <= shape[1] <= 12 else 6
+
+
 def _ro(a, shape_tail: tuple[int, ...] = (), name: str = "") -> np.ndarray:
     arr = np.array(a, dtype=np.float64)
     if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
@@ -65,7 +71,7 @@ class LawSeries:
     Path-sample curves (length k, the verifier's samples): ``s_mm``, ``feed_mm_s``,
     ``deflection_mm`` (predicted at the commanded feed). Time curves (length m, e.g. the RSI
     cycle): ``t_s``, ``feed_t_mm_s``, ``accel_mm_s2``, ``jerk_mm_s3``, ``joint_velocity_deg_s``
-    (m, 6).
+    (m, joints).
     """
 
     law: str
@@ -87,7 +93,8 @@ class LawSeries:
         object.__setattr__(
             self,
             "joint_velocity_deg_s",
-            _ro(self.joint_velocity_deg_s, (6,), f"{self.law}.joint_velocity_deg_s"),
+            _ro(self.joint_velocity_deg_s, (_joints(self.joint_velocity_deg_s),),
+                f"{self.law}.joint_velocity_deg_s"),
         )
         k, m = self.s_mm.shape[0], self.t_s.shape[0]
         for name in ("feed_mm_s", "deflection_mm"):
@@ -229,7 +236,8 @@ class ReportData:
     segment_kind : (k,) kind of segment each sample lies on (``"line"``, ``"blend"``, ...);
         samples whose kind is not ``"line"`` are drawn as blends.
     laws : one :class:`LawSeries` per law, in the order to report them.
-    joint_velocity_limit_deg_s : (6,) joint speed limits [deg/s].
+    joint_velocity_limit_deg_s : (joints,) joint speed limits [deg/s; mm/s for a prismatic
+        joint], as many as the laws' joint velocity columns.
     deflection_limit_mm : the user's deflection limit [mm].
     """
 
@@ -243,6 +251,11 @@ class ReportData:
     notes: tuple[str, ...] = field(default=())
     engagement: EngagementSeries | None = None
     redundancy: RedundancySeries | None = None
+    joint_units: tuple[str, ...] = ()  # per joint "deg" or "mm" (prismatic); () = all deg
+
+    def joint_unit(self, j: int) -> str:
+        """The display unit of joint ``j`` ("deg", or "mm" for a prismatic joint)."""
+        return self.joint_units[j] if j < len(self.joint_units) else "deg"
 
     def __post_init__(self) -> None:
         xyz = _ro(self.path_xyz_mm, (3,), "path_xyz_mm")
@@ -252,8 +265,8 @@ class ReportData:
             raise ValueError(f"segment_kind has shape {kind.shape}, expected ({xyz.shape[0]},)")
         object.__setattr__(self, "segment_kind", kind)
         lim = np.array(self.joint_velocity_limit_deg_s, dtype=float).reshape(-1)
-        if lim.shape != (6,):
-            raise ValueError(f"joint_velocity_limit_deg_s must have 6 values, got {lim.shape}")
+        if not 1 <= lim.size <= 12:
+            raise ValueError(f"joint_velocity_limit_deg_s must have 1-12 values, got {lim.shape}")
         lim.flags.writeable = False
         object.__setattr__(self, "joint_velocity_limit_deg_s", lim)
         object.__setattr__(self, "laws", tuple(self.laws))
@@ -265,6 +278,10 @@ class ReportData:
                     f"law {ls.law!r} has {ls.s_mm.shape[0]} path samples, the path has "
                     f"{xyz.shape[0]}: give its curves at the path samples"
                 )
+            if ls.joint_velocity_deg_s.shape[1] != lim.size:
+                raise ValueError(
+                    f"law {ls.law!r} has {ls.joint_velocity_deg_s.shape[1]} joint_velocity_deg_s "
+                    f"columns, the robot {lim.size} joint_velocity_limit_deg_s")
         object.__setattr__(self, "deflection_limit_mm", float(self.deflection_limit_mm))
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 

@@ -249,24 +249,29 @@ def plot_accel_jerk(data: ReportData) -> Figure:
 
 def plot_joint_velocity(data: ReportData) -> Figure:
     """Joint velocities vs time against their limits, one panel per joint."""
-    fig = _new_figure(11.0, 5.5, 2, 3, top=0.4, hgap=0.65, wgap=0.8)
-    axes = fig.subplots(2, 3, sharex=True).ravel()
-    for j, ax in enumerate(axes):
+    joints = data.joint_velocity_limit_deg_s.size
+    rows = max(1, -(-joints // 3))
+    fig = _new_figure(11.0, 2.75 * rows, rows, 3, top=0.4, hgap=0.65, wgap=0.8)
+    axes = fig.subplots(rows, 3, sharex=True, squeeze=False).ravel()
+    for ax in axes[joints:]:
+        ax.set_visible(False)
+    for j, ax in enumerate(axes[:joints]):
         lim = data.joint_velocity_limit_deg_s[j]
         for k, ls in enumerate(data.laws):
             _plot(ax, ls.t_s, ls.joint_velocity_deg_s[:, j], color=law_color(ls.law, k), lw=1.1,
                     label=_label(ls))
         peak = max(float(np.max(np.abs(ls.joint_velocity_deg_s[:, j]))) for ls in data.laws)
-        ax.axhline(lim, label=f"limit {lim:g} deg/s", **_LIMIT_STYLE)
+        unit = f"{data.joint_unit(j)}/s"
+        ax.axhline(lim, label=f"limit {lim:g} {unit}", **_LIMIT_STYLE)
         ax.axhline(-lim, **_LIMIT_STYLE)
-        ax.set_title(f"A{j + 1}: peak {peak:.3g} deg/s = {peak / lim:.2%} of {lim:g}"
+        ax.set_title(f"A{j + 1}: peak {peak:.3g} {unit} = {peak / lim:.2%} of {lim:g}"
                      if lim > 0 else f"A{j + 1}", fontsize="medium")
-        ax.set_ylabel("velocity [deg/s]")
+        ax.set_ylabel(f"velocity [{unit}]")
         ax.grid(alpha=0.3)
         # The limits are usually far above milling speeds: zoom on the data, say so in title.
         span = max(peak * 1.3, 1e-9)
         ax.set_ylim(-min(span, 1.1 * lim), min(span, 1.1 * lim))
-    for ax in axes[3:]:
+    for ax in axes[max(0, joints - 3):joints]:
         ax.set_xlabel("time t [s]")
     axes[0].legend(loc="best", fontsize="x-small")
     return fig

@@ -155,11 +155,24 @@ class _Task:
         return 6 if self.six_dof else 5
 
 
+#: IK weight of a prismatic joint [1/m^2] against a revolute joint's [1/rad^2]: the Newton
+#: steps minimise sum w_i dq_i^2, so 10 mm of a linear track cost as much as 1 rad of an arm
+#: joint and the slow, heavy track moves only where the arm alone cannot follow the path.
+PRISMATIC_WEIGHT = 1e4
+
+
+def inverse_weights(robot: RobotModel) -> np.ndarray:
+    """1 / the IK weight of each joint (:data:`PRISMATIC_WEIGHT` for prismatic joints)."""
+    prismatic = robot.axis_convention.unit < 0.005  # m per mm (rad per deg is 0.0175)
+    return np.where(prismatic, 1.0 / PRISMATIC_WEIGHT, 1.0)
+
+
 class _TcpKinematics:
     """Pinocchio TCP placement and Jacobian of one robot, with its own work data."""
 
     def __init__(self, robot: RobotModel) -> None:
         self.model, self.data, self.fid = robot.model, robot.model.createData(), robot.tcp_frame_id
+        self.winv = inverse_weights(robot)
 
     def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """TCP rotation (3, 3), position (3,) and Jacobian (6, dof) (LOCAL_WORLD_ALIGNED)."""
@@ -349,15 +362,17 @@ def _task_system(
 
 
 def _damped_newton_step(
-    jt: np.ndarray, e: np.ndarray, damping_eye: np.ndarray, max_step: float
+    jt: np.ndarray, e: np.ndarray, damping_eye: np.ndarray, max_step: float,
+    winv: np.ndarray,
 ) -> np.ndarray:
-    """Minimum-norm damped least-squares step ``J^T (J J^T + lambda^2 I)^-1 e`` (dof,).
+    """Weighted minimum-norm damped least-squares step ``W^-1 J^T (J W^-1 J^T + lambda^2 I)^-1
+    e`` (dof,), ``winv`` = diag W^-1 (:func:`inverse_weights`; all ones: the plain step).
 
     Falls back to least squares when the damped normal matrix is not positive definite;
     scaled down so that no joint moves by more than ``max_step`` [rad].
     """
-    _, x, info = lapack.dposv(jt @ jt.T + damping_eye, e)
-    dq = jt.T @ x if info == 0 else np.linalg.lstsq(jt, e, rcond=None)[0]
+    _, x, info = lapack.dposv((jt * winv) @ jt.T + damping_eye, e)
+    dq = winv * (jt.T @ x) if info == 0 else np.linalg.lstsq(jt, e, rcond=None)[0]
     big = np.abs(dq).max()
     if big > max_step:
         dq *= max_step / big
@@ -393,7 +408,7 @@ def _solve_sample(
         if ep_norm <= options.tol_position and ea <= options.tol_angle:
             return q, True, ep_norm, ea
         _task_system(jac, ep, ew, normals, jt, e)
-        q = q + _damped_newton_step(jt, e, damping_eye, options.max_newton_step)
+        q = q + _damped_newton_step(jt, e, damping_eye, options.max_newton_step, kin.winv)
         if ep_norm <= options.coarse_position and ea <= options.coarse_angle:
             return q, True, ep_norm, ea
     return q, False, ep_norm, ea
@@ -482,6 +497,7 @@ def _batch_newton_steps(
     ew: np.ndarray,
     damping_eye: np.ndarray,
     max_step: float,
+    winv: np.ndarray,
 ) -> np.ndarray:
     """Damped Newton steps (m, dof) of every sample of ``task`` (as :func:`_damped_newton_step`)
     from their Jacobians (m, 6, dof) and errors (m, 3)."""
@@ -491,8 +507,8 @@ def _batch_newton_steps(
         bt = np.swapaxes(task.normals, 1, 2)  # (m, 2, 3)
         jt_b = np.concatenate([jac[:, :3], bt @ jac[:, 3:]], axis=1)
         e_b = np.concatenate([ep, np.einsum("mij,mj->mi", bt, ew)], axis=1)
-    a = jt_b @ np.swapaxes(jt_b, 1, 2) + damping_eye
-    dq = np.einsum("mji,mj->mi", jt_b, np.linalg.solve(a, e_b[..., None])[..., 0])
+    a = (jt_b * winv) @ np.swapaxes(jt_b, 1, 2) + damping_eye
+    dq = winv * np.einsum("mji,mj->mi", jt_b, np.linalg.solve(a, e_b[..., None])[..., 0])
     big = np.abs(dq).max(axis=1, keepdims=True)
     dq *= np.minimum(1.0, max_step / np.maximum(big, 1e-300))
     return dq
@@ -571,7 +587,7 @@ def _refine_rows(
                 break
             todo, ep, ew = todo[above], ep[above], ew[above]
             qc[todo] += _batch_newton_steps(_sub_task(sub, todo), jac[todo], ep, ew,
-                                            damping_eye, options.max_newton_step)
+                                            damping_eye, options.max_newton_step, kin.winv)
         q[rows] = qc
         cond[rows] = jacobian_condition_number(jac, options.condition_length)
         if jacobian_out is not None:

@@ -330,16 +330,14 @@ def load_robot(directory: str | Path) -> RobotModel:
     )
 
 
-def require_six_axes(robot: RobotModel) -> RobotModel:
-    """``robot`` if a run can plan it (6 joints), else InputError naming its joints: a
-    7-axis arm or a robot on a linear track is read and checked, not planned yet."""
-    if robot.dof != 6:
-        raise InputError(
-            f"robot {robot.name} has {robot.dof} joints ({', '.join(robot.joint_names)}); "
-            "feedopt plans 6-axis arms, whose one free degree of freedom is the rotation "
-            "about the tool axis. A 7-axis arm or a robot on a linear track can be read and "
-            "checked (feedopt validate --robot, feedopt robot) but not planned yet")
-    return robot
+def six_axes_only(robot: RobotModel, what: str) -> str | None:
+    """Why ``what`` (a controller program) cannot be written for ``robot``: it has other than
+    6 joints (a 7-axis arm, an arm on a track); None for a 6-axis robot."""
+    if robot.dof == 6:
+        return None
+    return (f"no {what}: robot {robot.name} has {robot.dof} joints "
+            f"({', '.join(robot.joint_names)}); it is written for 6-axis arms (external axes "
+            "E1.. are not written); the setpoint CSV has every joint")
 
 
 # --------------------------------------------------------------------------- kinematics

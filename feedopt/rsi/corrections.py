@@ -127,6 +127,11 @@ def plan_from_poses(t_s: np.ndarray, pose: np.ndarray, start_q_deg: np.ndarray,
 def plan_from_table(table: RsiTable, cycle_s: float, source: str = "RSI CSV") -> CorrectionPlan:
     """Corrections of ``table`` (read with :func:`feedopt.export.rsi.read_rsi_csv`); see
     :func:`plan_from_poses`."""
+    joints = table.q_deg.shape[1]
+    if joints != 6:
+        raise InputError(f"{source}: {joints} joint columns (q1_deg..q{joints}_deg); RSI "
+                         "corrections are streamed to a 6-axis KUKA: this CSV is from a "
+                         f"{joints}-axis robot")
     pose = np.column_stack([table.x_mm, table.y_mm, table.z_mm, table.a_deg, table.b_deg,
                             table.c_deg])
     return plan_from_poses(table.t_s, pose, table.q_deg[0], cycle_s, source)

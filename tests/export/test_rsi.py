@@ -84,8 +84,12 @@ def test_table_arrays_are_read_only_copies():
     assert tab.t_s[0] == 0.0
     with pytest.raises(ValueError):
         tab.x_mm[0] = 2.0
+    with pytest.raises(ValueError, match="q_deg"):  # more joints than any robot read
+        RsiTable(a, a, a, a, a, a, a, np.zeros((3, 13)), a, a, a, a, a)
     with pytest.raises(ValueError, match="q_deg"):
-        RsiTable(a, a, a, a, a, a, a, np.zeros((3, 5)), a, a, a, a, a)
+        RsiTable(a, a, a, a, a, a, a, np.zeros(3), a, a, a, a, a)
+    seven = RsiTable(a, a, a, a, a, a, a, np.zeros((3, 7)), a, a, a, a, a)  # a 7-axis arm
+    assert RsiTable.from_matrix(seven.as_matrix()).equals(seven)
 
 
 def test_writer_refuses_an_empty_table(tmp_path):

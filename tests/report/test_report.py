@@ -102,9 +102,15 @@ def test_report_data_checks_shapes(report_data):
     with pytest.raises(ValueError, match="path samples"):
         ReportData("x", report_data.summary, report_data.path_xyz_mm,
                    report_data.segment_kind, (short,), np.ones(6), 0.29)
-    with pytest.raises(ValueError, match="joint_velocity_deg_s"):
+    with pytest.raises(ValueError, match="joint_velocity_deg_s"):  # one column per joint
         LawSeries("x", law.s_mm, law.feed_mm_s, law.deflection_mm, law.t_s, law.feed_t_mm_s,
-                  law.accel_mm_s2, law.jerk_mm_s3, law.joint_velocity_deg_s[:, :5])
+                  law.accel_mm_s2, law.jerk_mm_s3, law.joint_velocity_deg_s[:, 0])
+    five = LawSeries("x", law.s_mm, law.feed_mm_s, law.deflection_mm, law.t_s,
+                     law.feed_t_mm_s, law.accel_mm_s2, law.jerk_mm_s3,
+                     law.joint_velocity_deg_s[:, :5])
+    with pytest.raises(ValueError, match="5 joint_velocity_deg_s columns, the robot 6"):
+        ReportData("x", report_data.summary, report_data.path_xyz_mm,
+                   report_data.segment_kind, (five,), np.ones(6), 0.29)
     with pytest.raises(ValueError, match="feed_t_mm_s"):
         LawSeries("x", law.s_mm, law.feed_mm_s, law.deflection_mm, law.t_s,
                   law.feed_t_mm_s[1:], law.accel_mm_s2, law.jerk_mm_s3,

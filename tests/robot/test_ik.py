@@ -185,12 +185,29 @@ def test_damped_newton_step_is_minimum_norm_and_clamped():
     jt = rng.normal(size=(5, 6))
     e = rng.normal(size=5) * 1e-3
     eye = np.eye(5) * 1e-12
-    dq = ik_module._damped_newton_step(jt, e, eye, max_step=10.0)
+    ones = np.ones(6)
+    dq = ik_module._damped_newton_step(jt, e, eye, max_step=10.0, winv=ones)
     np.testing.assert_allclose(jt @ dq, e, atol=1e-12)
     np.testing.assert_allclose(dq, np.linalg.pinv(jt) @ e, atol=1e-12)  # minimum norm
-    big = ik_module._damped_newton_step(jt, e * 1e4, eye, max_step=0.2)
+    big = ik_module._damped_newton_step(jt, e * 1e4, eye, max_step=0.2, winv=ones)
     assert np.isclose(np.abs(big).max(), 0.2)
     np.testing.assert_allclose(big / np.linalg.norm(big), dq / np.linalg.norm(dq), atol=1e-9)
+
+
+def test_weighted_step_is_the_weighted_minimum_norm_solution():
+    """With weights w the step solves J dq = e with the least sum w_i dq_i^2: by brute
+    force, the minimum-norm solution in the scaled joints u = sqrt(w) q."""
+    rng = np.random.default_rng(5)
+    jt = rng.normal(size=(5, 7))
+    e = rng.normal(size=5) * 1e-3
+    w = np.array([1e4, 1, 1, 1, 1, 1, 1.0])  # a track and six arm joints
+    dq = ik_module._damped_newton_step(jt, e, np.eye(5) * 1e-14, max_step=10.0, winv=1 / w)
+    np.testing.assert_allclose(jt @ dq, e, atol=1e-12)
+    s = 1 / np.sqrt(w)
+    reference = s * (np.linalg.pinv(jt * s) @ e)
+    np.testing.assert_allclose(dq, reference, atol=1e-12)
+    plain = ik_module._damped_newton_step(jt, e, np.eye(5) * 1e-14, 10.0, np.ones(7))
+    assert abs(dq[0]) < 0.05 * abs(plain[0])  # the heavy joint moves far less
 
 
 def test_seed_is_a_first_order_predictor():

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from feedopt.cli import main
 from feedopt.robot.model import forward_kinematics, load_robot
@@ -158,15 +159,72 @@ def test_init_refuses_a_flange_off_the_last_axis_and_a_used_folder(tmp_path, cap
     assert not (PUBLISHED / "robot.yaml").exists()
 
 
-def test_a_seven_axis_arm_is_read_but_a_run_says_it_plans_six(tmp_path, quick_scenario, capsys):
-    """The iiwa from robot init validates as a robot; a scenario with it is refused (exit 2)
-    naming its 7 joints, not with a failure inside the planner."""
+def test_a_seven_axis_arm_plans_and_verifies(tmp_path, quick_scenario, capsys):
+    """The iiwa straight from robot init: 7 joints, the two extra degrees of freedom taken by
+    the nearest (weighted minimum-norm) IK, verified by the replay, the setpoint CSV with 7
+    joint columns; KRL, RSI and URScript are not written for it (said why)."""
     out = tmp_path / "iiwa"
     assert main(["robot", "init", str(PUBLISHED / "lbr_iiwa_14_r820.urdf"), "--out",
                  str(out)]) == 0
-    assert main(["validate", "--robot", str(out)]) == 0
+    # FK at (0, 40, 0, -80, 0, 60, 0) deg: TCP at (616.3, 0, 155.5) mm, tool pointing down
+    p = quick_scenario("linear_peripheral", robot__directory=str(out),
+                       robot__start_configuration_deg=[0, 40, 0, -80, 0, 60, 0],
+                       workpiece__position_mm=[600.0, 0.0, 155.5], path__spacing_mm=1.0,
+                       schedule__laws=["jerk"])
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
+    jerk = result.summary["laws"]["jerk"]
+    assert jerk["verified"] and jerk["exported"]
+    header = next(line for line in (tmp_path / "out" / "jerk.csv").read_text().splitlines()
+                  if line.startswith("t_s,"))
+    assert "q7_deg,s_mm" in header
+    doc = yaml.safe_load(p.read_text())
+    doc["robot"]["redundancy"] = "optimise"  # psi search: a 6-axis arm's
+    p.write_text(yaml.safe_dump(doc))
     capsys.readouterr()
-    p = quick_scenario("linear_peripheral", robot__directory=str(out))
     assert main(["validate", str(p)]) == 2
-    err = capsys.readouterr().err
-    assert "has 7 joints (joint_a1" in err and "plans 6-axis arms" in err
+    assert "has 7 joints: use redundancy: nearest" in capsys.readouterr().err
+
+
+def _on_a_track(tmp_path: Path) -> Path:
+    """The KR120 on a 6 m linear track along x: a prismatic joint under its base_link."""
+    text = (PUBLISHED / "kr120r2500pro.urdf").read_text()
+    cut = text.index(">", text.index("<robot")) + 1
+    track = """
+  <link name="track"/>
+  <joint name="joint_e1" type="prismatic">
+    <origin rpy="0 0 0" xyz="0 0 0.3"/>
+    <parent link="track"/>
+    <child link="base_link"/>
+    <axis xyz="1 0 0"/>
+    <limit effort="0" lower="0" upper="6.0" velocity="1.0"/>
+  </joint>
+"""
+    urdf = tmp_path / "kr120_track.urdf"
+    urdf.write_text(text[:cut] + track + text[cut:])
+    return urdf
+
+
+def test_a_robot_on_a_linear_track_plans_with_the_track_nearly_still(tmp_path, quick_scenario,
+                                                                    capsys):
+    """The track in mm (its range 0..6000 mm), the arm following the 203 mm cut while the
+    track moves by less than 0.5 mm (its IK weight: 10 mm of track cost as much as 1 rad)."""
+    out = tmp_path / "track"
+    assert main(["robot", "init", str(_on_a_track(tmp_path)), "--out", str(out)]) == 0
+    assert "joint_e1 prismatic" in capsys.readouterr().out
+    assert main(["validate", "--robot", str(out)]) == 0
+    assert "joint_e1: 0.00 .. 6000.00 mm, speed 1000 mm/s" in capsys.readouterr().out
+    p = quick_scenario("linear_peripheral", robot__directory=str(out),
+                       robot__start_configuration_deg=[1000, 0.153, -63.99, 105.722, 0,
+                                                       48.268, 0],
+                       workpiece__position_mm=[2798.4, -4.8, 1100.0], path__spacing_mm=1.0,
+                       schedule__laws=["jerk"])
+    result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
+    assert result.summary["laws"]["jerk"]["verified"]
+    lines = [ln for ln in (tmp_path / "out" / "jerk.csv").read_text().splitlines()
+             if ln and not ln.startswith("#")]
+    head = lines[0].split(",")
+    rows = np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+    track_mm = rows[:, head.index("q1_deg")]
+    x_mm = rows[:, head.index("x_mm")]
+    assert np.ptp(x_mm) > 200.0 and np.ptp(track_mm) < 0.5
+    assert abs(track_mm[0] - 1000.0) < 0.5  # from the start configuration, not a jump

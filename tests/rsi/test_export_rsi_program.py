@@ -120,9 +120,13 @@ def test_only_for_kuka_controllers() -> None:
     blocker = early_check(SimpleNamespace(controller="ur", name="ur10"), None)
     assert blocker is not None and not blocker.warn and "KUKA" in blocker.reason
     stated = SimpleNamespace(stated=True)
-    assert early_check(SimpleNamespace(controller="kuka", name="kr500",
+    assert early_check(SimpleNamespace(controller="kuka", name="kr500", dof=6,
                                        axis_convention=stated), None) is None
     # a KUKA robot whose robot.yaml states no axis convention: no program with URDF angles
-    unstated = early_check(SimpleNamespace(controller="kuka", name="kr210",
+    unstated = early_check(SimpleNamespace(controller="kuka", name="kr210", dof=6,
                                            axis_convention=SimpleNamespace(stated=False)), None)
     assert unstated is not None and unstated.warn and "controller.axes" in unstated.reason
+    track = early_check(SimpleNamespace(controller="kuka", name="kr120_track", dof=7,
+                                        joint_names=("joint_e1", *(f"a{i}" for i in range(6))),
+                                        axis_convention=stated), None)
+    assert track is not None and "has 7 joints (joint_e1" in track.reason
