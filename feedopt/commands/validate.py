@@ -108,13 +108,19 @@ def robot_summary(directory: str) -> str:
 
     robot = load_robot(directory)
     axes = robot.axis_convention
-    ends = np.sort(axes.to_controller(np.stack([robot.q_lower, robot.q_upper])), axis=0)
+    limits = np.stack([robot.q_lower, robot.q_upper])
+    # a coupled axis's range depends on the other joint: print its joint's URDF range
+    coupled = (np.zeros(robot.dof, dtype=bool) if axes.coupling is None
+               else np.any(axes.coupling != 0, axis=1))
+    ends = np.sort(np.where(coupled, limits / axes.unit, axes.to_controller(limits)), axis=0)
     units = ["mm" if u != np.pi / 180 else "deg" for u in axes.unit]
     lines = [f"{directory}: ok — {robot.name}: {robot.dof} joints, controller "
              f"{robot.controller}; {axes.describe()}"]
     for j, name in enumerate(robot.joint_names):
-        lines.append(f"  {name}: {ends[0, j]:.2f} .. {ends[1, j]:.2f} {units[j]}, speed "
-                     f"{robot.joint_velocity_max[j] / axes.unit[j]:.4g} {units[j]}/s")
+        note = " (the URDF joint's range: the controller's axis is coupled)" if (
+            coupled[j]) else ""
+        lines.append(f"  {name}: {ends[0, j]:.2f} .. {ends[1, j]:.2f} {units[j]}{note}, "
+                     f"speed {robot.joint_velocity_max[j] / axes.unit[j]:.4g} {units[j]}/s")
     tcp = forward_kinematics(robot, np.clip(np.zeros(robot.dof), robot.q_lower,
                                             robot.q_upper))
     where = ", ".join(f"{v + 0.0:.1f}" for v in np.round(tcp[:3, 3] * 1e3, 1))

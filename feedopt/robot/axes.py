@@ -38,6 +38,7 @@ class AxisConvention:
     offset: np.ndarray
     unit: np.ndarray
     stated: bool
+    coupling: np.ndarray | None = None  # (dof, dof), zero diagonal: axis i += C[i, j] q_j
 
     @classmethod
     def identity(cls, unit: np.ndarray) -> AxisConvention:
@@ -45,31 +46,52 @@ class AxisConvention:
         n = np.asarray(unit).size
         return cls(np.ones(n), np.zeros(n), np.asarray(unit, dtype=float), False)
 
+    @property
+    def matrix(self) -> np.ndarray:
+        """M of controller axis = M q + offset (SI): diag(sign) plus the coupling."""
+        m = np.diag(self.sign)
+        return m if self.coupling is None else m + self.coupling
+
     def to_controller(self, q: np.ndarray) -> np.ndarray:
         """Controller axis values [deg, mm] of URDF joints ``q`` (..., dof) [rad, m]."""
-        return (self.sign * np.asarray(q, dtype=float) + self.offset) / self.unit
+        return self.to_controller_si(q) / self.unit
 
     def to_controller_si(self, q: np.ndarray) -> np.ndarray:
         """Controller axis values [rad, m] of URDF joints ``q`` (URScript's unit)."""
-        return self.sign * np.asarray(q, dtype=float) + self.offset
+        q = np.asarray(q, dtype=float)
+        if self.coupling is None:
+            return self.sign * q + self.offset
+        return q @ self.matrix.T + self.offset
 
     def from_controller(self, values: np.ndarray) -> np.ndarray:
         """URDF joints [rad, m] of controller axis values (..., dof) [deg, mm]."""
-        return self.sign * (np.asarray(values, dtype=float) * self.unit - self.offset)
+        rhs = np.asarray(values, dtype=float) * self.unit - self.offset
+        if self.coupling is None:
+            return self.sign * rhs
+        return np.linalg.solve(self.matrix, rhs.T).T
 
     def describe(self) -> str:
         """One line for export headers: which convention the axis values are in."""
-        if self.stated and not np.any(self.offset) and np.all(self.sign > 0):
+        if (self.stated and not np.any(self.offset) and np.all(self.sign > 0)
+                and self.coupling is None):
             return ("axis values = URDF joint angles (robot.yaml controller.axes: the "
                     "controller's convention is the URDF's)")
         if not self.stated:
             return "axis values are the URDF's joint angles (robot.yaml states no controller.axes)"
-        parts = [f"{'' if s > 0 else '-'}q{j + 1}{o:+g}" if o else
-                 f"{'' if s > 0 else '-'}q{j + 1}"
+        parts = [f"{'' if s > 0 else '-'}q{j + 1}{self._coupled(j)}{o:+g}" if o else
+                 f"{'' if s > 0 else '-'}q{j + 1}{self._coupled(j)}"
                  for j, (s, o) in enumerate(zip(self.sign, self.offset / self.unit,
                                                 strict=True))]
         return ("axis values in the controller's convention (robot.yaml controller.axes): "
                 + ", ".join(f"A{j + 1} = {p}" for j, p in enumerate(parts)))
+
+
+    def _coupled(self, axis: int) -> str:
+        """`` + 1*q2`` terms of controller axis ``axis`` (0-based)."""
+        if self.coupling is None:
+            return ""
+        return "".join(f" {'+' if c > 0 else '-'} {abs(c):g}*q{j + 1}"
+                       for j, c in enumerate(self.coupling[axis]) if c)
 
 
 def axis_convention(section: AxisConventionSection | None, joints: tuple[str, ...],
@@ -87,5 +109,26 @@ def axis_convention(section: AxisConventionSection | None, joints: tuple[str, ..
     if np.any(np.abs(offset[unit != MM]) > 2 * np.pi):
         raise InputError(f"{where}: controller.axes.offset_deg: every offset of a revolute "
                          f"joint must be within +-360 deg, got {section.offset_deg}")
-    return AxisConvention(np.asarray(section.sign, dtype=float), offset,
-                          np.asarray(unit, dtype=float), True)
+    sign = np.asarray(section.sign, dtype=float)
+    return AxisConvention(sign, offset, np.asarray(unit, dtype=float), True,
+                          _coupling(section, joints, sign, where))
+
+
+def _coupling(section: AxisConventionSection, joints: tuple[str, ...], sign: np.ndarray,
+              where: Path) -> np.ndarray | None:
+    """The coupling matrix of ``controller.axes.coupled`` (None without any), checked: axes and
+    joints of this robot, no axis coupled to itself, the map invertible."""
+    if not section.coupled:
+        return None
+    n = len(joints)
+    c = np.zeros((n, n))
+    for k, entry in enumerate(section.coupled):
+        if entry.axis > n or entry.joint > n or entry.axis == entry.joint:
+            raise InputError(f"{where}: controller.axes.coupled.{k}: axis {entry.axis} and joint "
+                             f"{entry.joint} must be two different ones of this robot's {n} "
+                             f"({', '.join(joints)})")
+        c[entry.axis - 1, entry.joint - 1] += entry.factor
+    if abs(np.linalg.det(np.diag(sign) + c)) < 1e-9:
+        raise InputError(f"{where}: controller.axes.coupled: the controller's axes would not "
+                         "determine the joints (the map is singular); check the factors")
+    return c

@@ -50,13 +50,27 @@ class ToolSection(schema.Strict):
     source: str = Field("not stated", description="where the tool numbers come from")
 
 
+class CouplingSection(schema.Strict):
+    """A controller axis that also counts another URDF joint (FANUC's J2/J3 interaction: the
+    controller's J3 is the forearm's angle from the horizontal, the URDF's q3 its angle from
+    the upper arm)."""
+
+    axis: Annotated[int, Field(ge=1, le=12)] = Field(description="the controller axis (1-based)")
+    joint: Annotated[int, Field(ge=1, le=12)] = Field(description="the URDF joint it adds")
+    factor: FiniteFloat = Field(1.0, description="controller units per URDF joint unit")
+
+
 class AxisConventionSection(schema.Strict):
-    """How the controller numbers its axes: controller axis = sign * URDF joint + offset."""
+    """How the controller numbers its axes: controller axis = sign * URDF joint + offset (+ the
+    coupled joints)."""
 
     sign: list[Literal[1, -1]] = Field(description="per joint, +1 or -1")
     offset_deg: list[FiniteFloat] = Field(
         description="per joint [deg] (mm for a prismatic joint): the controller's value at the "
         "URDF's zero")
+    coupled: list[CouplingSection] = Field(
+        [], description="controller axes that add factor * another URDF joint, e.g. FANUC's "
+        "J2/J3 interaction [{axis: 3, joint: 2, factor: 1}] (check the sign on your robot)")
 
 
 class ControllerSection(schema.Strict):

@@ -16,10 +16,12 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
+from feedopt.errors import InputError
 from feedopt.robot.axes import AxisConvention
 from feedopt.robot.model import forward_kinematics, load_robot
 from feedopt.runner import run_scenario
@@ -144,3 +146,52 @@ def test_a_kuka_robot_without_axes_gets_no_kuka_program(tmp_path, quick_scenario
     assert any("controller.axes" in m for m in messages if m.startswith("warning"))
     assert (tmp_path / "out" / "jerk.csv").is_file()  # the setpoint CSV, URDF angles, says so
     assert "URDF's joint angles" in (tmp_path / "out" / "jerk.csv").read_text()
+
+
+
+def test_a_coupled_axis_fanuc_j2_j3(tmp_path):
+    """FANUC's J3 is the forearm's angle from the horizontal: controller J3 = q3 + q2. The
+    exports write it, start configurations are read back through it, validate shows it."""
+    d = _robot_with_axes(tmp_path, "fanuc_like", {
+        "sign": [1] * 6, "offset_deg": [0] * 6,
+        "coupled": [{"axis": 3, "joint": 2, "factor": 1.0}]})
+    robot = load_robot(d)
+    ax = robot.axis_convention
+    q = np.deg2rad([5.0, 10.0, 20.0, 0.0, 30.0, 0.0])
+    np.testing.assert_allclose(ax.to_controller(q), [5, 10, 30, 0, 30, 0], atol=1e-12)
+    np.testing.assert_allclose(ax.from_controller([5, 10, 30, 0, 30, 0]), q, atol=1e-15)
+    assert "A3 = q3 + 1*q2" in ax.describe()
+    bad = _robot_with_axes(tmp_path, "self", {"sign": [1] * 6, "offset_deg": [0] * 6,
+                                              "coupled": [{"axis": 3, "joint": 3}]})
+    with pytest.raises(InputError, match="two different ones"):
+        load_robot(bad)
+    singular = _robot_with_axes(tmp_path, "singular", {
+        "sign": [1] * 6, "offset_deg": [0] * 6,
+        "coupled": [{"axis": 2, "joint": 3, "factor": 1.0}, {"axis": 3, "joint": 2,
+                                                              "factor": 1.0}]})
+    with pytest.raises(InputError, match="singular"):
+        load_robot(singular)
+
+
+@given(st.lists(st.floats(-170, 170), min_size=6, max_size=6),
+       st.floats(-2.0, 2.0).filter(lambda f: abs(f) > 1e-3 or f == 0.0))
+def test_coupled_conversion_round_trips(values, factor):
+    unit = np.full(6, np.pi / 180)
+    coupling = np.zeros((6, 6))
+    coupling[2, 1] = factor
+    ax = AxisConvention(np.ones(6), np.zeros(6), unit, True, coupling)
+    np.testing.assert_allclose(ax.to_controller(ax.from_controller(np.array(values))), values,
+                               atol=1e-9)
+
+
+def test_validate_shows_the_coupled_axis(tmp_path, capsys):
+    from feedopt.cli import main
+
+    d = _robot_with_axes(tmp_path, "fanuc_like", {
+        "sign": [1] * 6, "offset_deg": [0] * 6,
+        "coupled": [{"axis": 3, "joint": 2, "factor": 1.0}]})
+    assert main(["validate", "--robot", str(d)]) == 0
+    out = capsys.readouterr().out
+    assert "A3 = q3 + 1*q2" in out
+    assert "joint_a3: -100.00 .. 144.00 deg (the URDF joint's range" in out
+    assert "joint_a2: -130.00 .. 20.00 deg, speed" in out  # not coupled: its own range
