@@ -70,7 +70,29 @@ def urdf_fk(urdf: Path, link: str, q_by_joint: dict[str, float]) -> np.ndarray:
 
 @pytest.mark.parametrize("urdf", list(URDFS), ids=lambda p: p.stem)
 def test_init_writes_a_robot_whose_fk_matches_the_urdf(tmp_path, capsys, urdf):
-    dof, flange, off_mm, locked = URDFS[urdf]
+    _check_init(tmp_path, capsys, urdf, *URDFS[urdf])
+
+
+def test_init_on_a_fanuc_expanded_from_its_xacro(tmp_path, capsys):
+    """ROS-Industrial's FANUC M-20iA ships xacro only: expanded with the xacro package (its
+    ``$(find package)`` paths pointed at the committed folders), then as any URDF."""
+    import re
+
+    xacro = pytest.importorskip("xacro")
+    source = ROOT / "tests" / "data" / "robots" / "xacro"
+    work = tmp_path / "xacro"
+    for f in source.rglob("*.xacro"):
+        out = work / f.relative_to(source)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(re.sub(r"\$\(find ([\w-]+)\)", lambda m: str(work / m.group(1)),
+                              f.read_text()))
+    urdf = tmp_path / "m20ia.urdf"
+    urdf.write_text(xacro.process_file(str(work / "fanuc_m20ia_support" / "urdf" /
+                                           "m20ia.xacro")).toprettyxml(indent="  "))
+    _check_init(tmp_path, capsys, urdf, 6, "flange", 0.0, ())
+
+
+def _check_init(tmp_path, capsys, urdf, dof, flange, off_mm, locked):
     out = tmp_path / "robot"
     assert main(["robot", "init", str(urdf), "--out", str(out), "--tool-length-mm", "250"]) == 0
     printed = capsys.readouterr().out
