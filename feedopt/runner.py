@@ -458,7 +458,17 @@ def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
         raise InputError(f"robot.start_configuration_deg has {len(given)} values; robot "
                          f"{robot.name} has {robot.dof} joints ({', '.join(robot.joint_names)}): "
                          "give one value per joint, in the controller's axis values")
-    return robot.axis_convention.from_controller(given)
+    q = robot.axis_convention.from_controller(given)
+    out = np.flatnonzero((q < robot.q_lower) | (q > robot.q_upper))
+    if out.size:
+        j = int(out[0])
+        unit = robot.axis_convention.unit[j]
+        name = "mm" if unit < 0.005 else "deg"
+        raise InputError(
+            f"robot.start_configuration_deg: axis {j + 1} (joint {robot.joint_names[j]}) = "
+            f"{given[j]:g} {name} puts the joint at {q[j] / unit:.3f} {name} (URDF), outside its "
+            f"range [{robot.q_lower[j] / unit:.1f}, {robot.q_upper[j] / unit:.1f}] {name}")
+    return q
 
 
 def _x_axes(scenario: Scenario, placement: Placement) -> np.ndarray | None:
@@ -823,8 +833,9 @@ def validate_scenario(scenario_path: str | Path) -> str:
     scenario, base_dir = load_scenario(scenario_path)
     tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))  # files in this order
     load_coefficients(resolve(base_dir, scenario.material, "material file"))
-    _check_redundancy(load_robot(resolve(base_dir, scenario.robot.directory,
-                                         "robot directory")), scenario)
+    robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
+    _check_redundancy(robot, scenario)
+    start_joints(robot, scenario)  # one value per joint, within the limits, as run checks
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     if path.moves is not None:
         scenario, _ = apply_program(scenario, path.moves, scenario.path.file)

@@ -107,6 +107,12 @@ def run(args: argparse.Namespace) -> int:
     bad = np.flatnonzero((q < robot.q_lower) | (q > robot.q_upper))
     if bad.size:
         j = int(bad[0])
+        if axes.coupled_axes()[j]:  # its range depends on the joint it adds: say the URDF's
+            raise InputError(
+                f"--q-deg: joint {robot.joint_names[j]} comes to {q[j] / axes.unit[j]:.3f} "
+                f"(URDF), outside its URDF range [{robot.q_lower[j] / axes.unit[j]:.1f}, "
+                f"{robot.q_upper[j] / axes.unit[j]:.1f}]; controller axis {j + 1} is coupled "
+                f"({axes.describe()})")
         ends = np.sort(axes.to_controller(np.stack([robot.q_lower, robot.q_upper]))[:, j])
         raise InputError(
             f"--q-deg: axis {j + 1} (joint {robot.joint_names[j]}) = {given[j]:.3f} is outside "

@@ -61,12 +61,21 @@ def run(args: argparse.Namespace) -> int:
     target = _target(args.out, urdf)
     summary = inspect_urdf(urdf, args.flange)
     text = robot_yaml_text(summary, urdf.name, args.tool_length_mm, args.controller)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.robot-init-", dir=target.parent))
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.robot-init-",
+                                        dir=target.parent))
+    except OSError as exc:
+        raise InputError(f"--out {args.out}: cannot write in {target.parent} "
+                         f"({exc.strerror or type(exc).__name__}); choose a folder you can "
+                         "write to") from None
     try:
         shutil.copyfile(urdf, staging / urdf.name)
         (staging / "robot.yaml").write_text(text, encoding="utf-8")
-        robot = load_robot(staging)  # what was written loads as a robot, or nothing is kept
+        try:  # what was written loads as a robot, or nothing is kept
+            robot = load_robot(staging)
+        except InputError as exc:
+            raise InputError(str(exc).replace(str(staging), str(args.out))) from None
         if target.exists():
             target.rmdir()
         staging.rename(target)

@@ -110,8 +110,7 @@ def robot_summary(directory: str) -> str:
     axes = robot.axis_convention
     limits = np.stack([robot.q_lower, robot.q_upper])
     # a coupled axis's range depends on the other joint: print its joint's URDF range
-    coupled = (np.zeros(robot.dof, dtype=bool) if axes.coupling is None
-               else np.any(axes.coupling != 0, axis=1))
+    coupled = axes.coupled_axes()
     ends = np.sort(np.where(coupled, limits / axes.unit, axes.to_controller(limits)), axis=0)
     units = ["mm" if u != np.pi / 180 else "deg" for u in axes.unit]
     lines = [f"{directory}: ok — {robot.name}: {robot.dof} joints, controller "

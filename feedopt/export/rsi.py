@@ -320,7 +320,7 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
         f"{ver.max_deflection / MM:.4f} mm (limit {job.limit_mm} mm)",
         "pose: TCP in the robot base frame, A,B,C = KUKA Z-Y'-X'' (deg); q from IK; "
         "deflection = predicted static deflection at the commanded feed",
-        f"q1..q6: {axes.describe()}",
+        f"q1..q{q.shape[1]}: {axes.describe()}",
         *frames_header_lines(job.robot),
         *header_notes(job),
     ])

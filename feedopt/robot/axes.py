@@ -39,6 +39,7 @@ class AxisConvention:
     unit: np.ndarray
     stated: bool
     coupling: np.ndarray | None = None  # (dof, dof), zero diagonal: axis i += C[i, j] q_j
+    # (C in controller units per URDF joint unit: deg per deg, deg per mm, ...)
 
     @classmethod
     def identity(cls, unit: np.ndarray) -> AxisConvention:
@@ -48,27 +49,37 @@ class AxisConvention:
 
     @property
     def matrix(self) -> np.ndarray:
-        """M of controller axis = M q + offset (SI): diag(sign) plus the coupling."""
+        """M of controller axis = M (q / unit) + offset / unit, in controller units (deg, mm):
+        diag(sign) plus the coupling."""
         m = np.diag(self.sign)
         return m if self.coupling is None else m + self.coupling
 
     def to_controller(self, q: np.ndarray) -> np.ndarray:
         """Controller axis values [deg, mm] of URDF joints ``q`` (..., dof) [rad, m]."""
-        return self.to_controller_si(q) / self.unit
+        q = np.asarray(q, dtype=float)
+        if self.coupling is None:
+            return (self.sign * q + self.offset) / self.unit
+        return (q / self.unit) @ self.matrix.T + self.offset / self.unit
 
     def to_controller_si(self, q: np.ndarray) -> np.ndarray:
         """Controller axis values [rad, m] of URDF joints ``q`` (URScript's unit)."""
-        q = np.asarray(q, dtype=float)
         if self.coupling is None:
-            return self.sign * q + self.offset
-        return q @ self.matrix.T + self.offset
+            return self.sign * np.asarray(q, dtype=float) + self.offset
+        return self.to_controller(q) * self.unit
 
     def from_controller(self, values: np.ndarray) -> np.ndarray:
         """URDF joints [rad, m] of controller axis values (..., dof) [deg, mm]."""
-        rhs = np.asarray(values, dtype=float) * self.unit - self.offset
+        values = np.asarray(values, dtype=float)
         if self.coupling is None:
-            return self.sign * rhs
-        return np.linalg.solve(self.matrix, rhs.T).T
+            return self.sign * (values * self.unit - self.offset)
+        rhs = values - self.offset / self.unit
+        return np.linalg.solve(self.matrix, rhs.T).T * self.unit
+
+    def coupled_axes(self) -> np.ndarray:
+        """(dof,) True where the controller's axis adds another joint."""
+        if self.coupling is None:
+            return np.zeros(self.sign.size, dtype=bool)
+        return np.any(self.coupling != 0, axis=1)
 
     def describe(self) -> str:
         """One line for export headers: which convention the axis values are in."""

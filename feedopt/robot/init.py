@@ -12,6 +12,7 @@ whose every guessed number is labelled a placeholder and repeated as a run warni
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +21,7 @@ import pinocchio as pin
 
 from feedopt.errors import InputError
 from feedopt.robot.robot_file import CONTROLLERS
-from feedopt.robot.urdf_chain import chain_model, mimic_joints
+from feedopt.robot.urdf_chain import chain_model, check_arm, mimic_joints
 from feedopt.textio import read_user_bytes
 
 #: Largest distance of the flange frame's origin from the last joint's axis that is taken for
@@ -29,6 +30,8 @@ OFF_AXIS_TOLERANCE_MM = 1.0
 #: Preferred flange frame names, in order (ROS-Industrial: ``flange`` has +x out of the
 #: flange, ``tool0`` +z; UR: ``tool0``, ``flange``; others: ``ee_link``).
 FLANGE_NAMES = ("flange", "tool0", "ee_link", "link_ee", "end_effector")
+#: Joint speeds robot init accepts from a URDF [deg/s or mm/s] (feedopt.robot.model's range).
+SPEED_RANGE = (1e-3, 1e5)
 #: The placeholder joint stiffness written [MN m/rad]: the order of a mid-size industrial
 #: arm's (thesis Table 3.4: 0.14-3.93), labelled as such.
 PLACEHOLDER_STIFFNESS = 1.0
@@ -88,7 +91,8 @@ def _flange_name(model: pin.Model, urdf: Path, flange: str | None) -> str:
     for name in FLANGE_NAMES:
         if any(f.name == name for f in moving):
             return name
-    return max(moving, key=lambda f: _depth(model, f.parentJoint)).name
+    # the last frame on the deepest joint (fixed frames follow their link's in the list)
+    return max(reversed(moving), key=lambda f: _depth(model, f.parentJoint)).name
 
 
 def _outward(model: pin.Model, fid: int, urdf: Path) -> tuple[np.ndarray, float]:
@@ -132,8 +136,9 @@ def inspect_urdf(urdf: Path, flange: str | None = None) -> UrdfSummary:
     or frame for what feedopt cannot use."""
     model = _model(urdf)
     flange_name = _flange_name(model, urdf, flange)
-    model, locked = chain_model(model, flange_name, urdf, mimic_joints(read_user_bytes(
-        urdf, "URDF")))
+    raw = read_user_bytes(urdf, "URDF")
+    model, locked = chain_model(model, flange_name, urdf, mimic_joints(raw))
+    check_arm(model, flange_name, urdf, locked, raw)
     joints, kinds, scale = [], [], []
     for j in range(1, model.njoints):
         prismatic = model.joints[j].shortname().startswith("JointModelP")
@@ -173,6 +178,12 @@ def tcp_rpy_deg(outward: np.ndarray) -> np.ndarray:
     return np.rad2deg([roll, pitch, yaw])
 
 
+def _quoted(text: str) -> str:
+    """``text`` as a YAML scalar that reads back as the same string (a JSON string is one):
+    names like ``#1``, ``null``, ``a: b`` or ``123`` stay what they are."""
+    return json.dumps(text, ensure_ascii=False)
+
+
 def _numbers(values: np.ndarray) -> str:
     return "[" + ", ".join(f"{round(float(v), 3) + 0.0:g}" for v in values) + "]"
 
@@ -185,19 +196,22 @@ def robot_yaml_text(summary: UrdfSummary, urdf_name: str, tool_length_mm: float,
         raise InputError(f"--controller must be one of {', '.join(CONTROLLERS)}, got "
                          f"{controller!r}")
     n = len(summary.joints)
-    speed = np.where(summary.speed > 0, summary.speed, np.nan)
-    if np.isnan(speed).any():
-        missing = [j for j, s in zip(summary.joints, speed, strict=True) if np.isnan(s)]
-        raise InputError(f"the URDF gives no <limit velocity> for {', '.join(missing)}: add "
-                         "the data sheet's speeds to it (rad/s, m/s) before robot init")
+    speed = summary.speed
+    bad = [f"{j} ({s:g} {'mm/s' if k == 'prismatic' else 'deg/s'})"
+           for j, s, k in zip(summary.joints, speed, summary.kinds, strict=True)
+           if not SPEED_RANGE[0] <= round(float(s), 3) <= SPEED_RANGE[1]]
+    if bad:
+        raise InputError(f"{urdf_name}: <limit velocity> of {', '.join(bad)} is not a joint's "
+                         f"speed ({SPEED_RANGE[0]:g} to {SPEED_RANGE[1]:g} deg/s or mm/s): "
+                         "put the data sheet's speeds in the URDF (rad/s, m/s) before robot init")
     tcp = summary.outward * tool_length_mm
     units = "deg and deg/s" if "prismatic" not in summary.kinds else (
         "deg, deg/s for revolute joints; mm, mm/s for prismatic joints")
     lines = [
         f"# Written by feedopt robot init from {urdf_name}. Units: mm, {units}, MN m/rad.",
         "# Every number marked PLACEHOLDER must be replaced before its predictions mean anything.",
-        f"name: {summary.name}",
-        f"urdf: {urdf_name}",
+        f"name: {_quoted(summary.name)}",
+        f"urdf: {_quoted(urdf_name)}",
         "controller:",
         f"  type: {controller}",
         "  # axes: the controller's convention (controller axis = sign * URDF joint + offset),",
@@ -217,7 +231,7 @@ def robot_yaml_text(summary: UrdfSummary, urdf_name: str, tool_length_mm: float,
         f"# {summary.flange}: the flange frame; out of the flange is {_numbers(summary.outward)}"
         f" in it (the last joint's axis); its origin is {summary.off_axis_mm:.3f} mm off that "
         "axis.",
-        f"flange_frame: {summary.flange}",
+        f"flange_frame: {_quoted(summary.flange)}",
         "tool:",
         f"  tcp_xyz_mm: {_numbers(tcp)}",
         f"  tcp_rpy_deg: {_numbers(tcp_rpy_deg(summary.outward))}",

@@ -38,7 +38,7 @@ from feedopt.robot.robot_file import (
     parse_robot_file,
     stiffness_unit_mistake,
 )
-from feedopt.robot.urdf_chain import chain_model, mimic_joints
+from feedopt.robot.urdf_chain import chain_model, check_arm, mimic_joints
 from feedopt.textio import read_user_bytes
 from feedopt.units import MM
 from feedopt.yamlio import read_yaml
@@ -197,7 +197,12 @@ def _read_kinematics(doc: RobotFile, directory: Path, yaml_path: Path
     frame = doc.tcp_frame or doc.flange_frame or ""
     locked: tuple[str, ...] = ()
     if model.existFrame(frame):  # else _add_tcp_frame names the frames there are
+        if model.frames[int(model.getFrameId(frame))].parentJoint == 0:
+            raise InputError(f"{yaml_path}: frame '{frame}' is fixed to the base (no joint moves "
+                             "it); name the frame at the end of the arm (e.g. 'flange' or "
+                             "'tool0')")
         model, locked = chain_model(model, frame, urdf_path, mimic_joints(raw))
+        check_arm(model, frame, urdf_path, locked, raw)
     if model.nv != model.nq:
         odd = [model.names[j] for j in range(1, model.njoints)
                if model.joints[j].nq != model.joints[j].nv]

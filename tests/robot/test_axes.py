@@ -195,3 +195,29 @@ def test_validate_shows_the_coupled_axis(tmp_path, capsys):
     assert "A3 = q3 + 1*q2" in out
     assert "joint_a3: -100.00 .. 144.00 deg (the URDF joint's range" in out
     assert "joint_a2: -130.00 .. 20.00 deg, speed" in out  # not coupled: its own range
+
+
+def test_coupling_factors_are_in_controller_units_per_joint_unit():
+    """A track (mm) coupled into axis 2 (deg) with 0.01 deg per mm: 1000 mm of track add 10
+    deg, whatever the SI units inside."""
+    unit = np.array([1e-3] + [np.pi / 180] * 6)
+    coupling = np.zeros((7, 7))
+    coupling[1, 0] = 0.01
+    ax = AxisConvention(np.ones(7), np.zeros(7), unit, True, coupling)
+    q = np.array([1.0, 0, 0, 0, 0, 0, 0])  # 1 m of track, the arm at zero
+    np.testing.assert_allclose(ax.to_controller(q), [1000, 10, 0, 0, 0, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(ax.from_controller([1000, 10, 0, 0, 0, 0, 0]), q, atol=1e-15)
+
+
+def test_a_start_configuration_outside_the_limits_is_named_in_controller_values(
+        tmp_path, quick_scenario, capsys):
+    from feedopt.cli import main
+
+    d = _robot_with_axes(tmp_path, "shifted", {"sign": [1] * 6,
+                                               "offset_deg": [0, -90, 90, 0, 0, 0]})
+    p = quick_scenario("linear_peripheral", robot__directory=str(d),
+                       robot__start_configuration_deg=[0, -90, 300, 0, 45, 0])
+    assert main(["validate", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert ("robot.start_configuration_deg: axis 3 (joint joint_a3) = 300 deg puts the joint "
+            "at 210.000 deg (URDF)") in err

@@ -199,6 +199,15 @@ def test_a_seven_axis_arm_plans_and_verifies(tmp_path, quick_scenario, capsys):
     header = next(line for line in (tmp_path / "out" / "jerk.csv").read_text().splitlines()
                   if line.startswith("t_s,"))
     assert "q7_deg,s_mm" in header
+    assert "# q1..q7: " in (tmp_path / "out" / "jerk.csv").read_text()
+    six = yaml.safe_load(p.read_text())
+    six["robot"]["start_configuration_deg"] = [0, 40, 0, -80, 0, 60]
+    p.write_text(yaml.safe_dump(six))
+    capsys.readouterr()
+    assert main(["validate", str(p)]) == 2  # validate refuses what run refuses
+    assert "has 6 values; robot" in capsys.readouterr().err
+    six["robot"]["start_configuration_deg"] = [0, 40, 0, -80, 0, 60, 0]
+    p.write_text(yaml.safe_dump(six))
     doc = yaml.safe_load(p.read_text())
     doc["robot"]["redundancy"] = "optimise"  # psi search: a 6-axis arm's
     p.write_text(yaml.safe_dump(doc))
