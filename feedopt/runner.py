@@ -463,7 +463,7 @@ def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
     if out.size:
         j = int(out[0])
         unit = robot.axis_convention.unit[j]
-        name = "mm" if unit < 0.005 else "deg"
+        name = robot.axis_convention.unit_names()[j]
         raise InputError(
             f"robot.start_configuration_deg: axis {j + 1} (joint {robot.joint_names[j]}) = "
             f"{given[j]:g} {name} puts the joint at {q[j] / unit:.3f} {name} (URDF), outside its "

@@ -112,7 +112,7 @@ def robot_summary(directory: str) -> str:
     # a coupled axis's range depends on the other joint: print its joint's URDF range
     coupled = axes.coupled_axes()
     ends = np.sort(np.where(coupled, limits / axes.unit, axes.to_controller(limits)), axis=0)
-    units = ["mm" if u != np.pi / 180 else "deg" for u in axes.unit]
+    units = axes.unit_names()
     lines = [f"{directory}: ok — {robot.name}: {robot.dof} joints, controller "
              f"{robot.controller}; {axes.describe()}"]
     for j, name in enumerate(robot.joint_names):

@@ -558,8 +558,9 @@ def early_check(robot, path) -> Blocker | None:
                        warn=False)
     if not robot.axis_convention.stated:
         return Blocker(f"no KRL program: {UNSTATED_AXES}")
-    if six_axes_only(robot, "KRL program"):
-        return Blocker(six_axes_only(robot, "KRL program"))
+    why = six_axes_only(robot, "KRL program")
+    if why is not None:
+        return Blocker(why)
     n_segments = segment_count(path)
     if n_segments > MAX_SEGMENTS:
         return Blocker(f"no KRL program: the path's key points make {n_segments} spline "

@@ -273,8 +273,9 @@ def early_check(robot, path) -> Blocker | None:
                        warn=False)
     if not robot.axis_convention.stated:
         return Blocker(f"no RSI host program: {UNSTATED_AXES}")
-    if six_axes_only(robot, "RSI host program"):
-        return Blocker(six_axes_only(robot, "RSI host program"))
+    why = six_axes_only(robot, "RSI host program")
+    if why is not None:
+        return Blocker(why)
     return None
 
 

@@ -48,8 +48,7 @@ def write_run_report(out_dir: Path, scenario_name: str, summary: dict, positions
         deflection_limit_mm=limit_mm,
         engagement=engagement,
         redundancy=redundancy,
-        joint_units=tuple("deg" if joint_unit is None or u > 0.005 else "mm"
-                          for u in (joint_unit if joint_unit is not None
-                                    else np.ones(problem.joint_velocity_max.size))),
+        joint_units=() if joint_unit is None else tuple(
+            "mm" if u == MM else "deg" for u in joint_unit),
     )
     write_report(out_dir, data)

@@ -54,6 +54,15 @@ class AxisConvention:
         m = np.diag(self.sign)
         return m if self.coupling is None else m + self.coupling
 
+    @property
+    def prismatic(self) -> np.ndarray:
+        """(dof,) True for a prismatic joint (its values in mm)."""
+        return self.unit == MM
+
+    def unit_names(self) -> tuple[str, ...]:
+        """Per joint the controller unit: "mm" (prismatic) or "deg"."""
+        return tuple("mm" if p else "deg" for p in self.prismatic)
+
     def to_controller(self, q: np.ndarray) -> np.ndarray:
         """Controller axis values [deg, mm] of URDF joints ``q`` (..., dof) [rad, m]."""
         q = np.asarray(q, dtype=float)

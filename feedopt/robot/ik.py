@@ -163,8 +163,7 @@ PRISMATIC_WEIGHT = 1e4
 
 def inverse_weights(robot: RobotModel) -> np.ndarray:
     """1 / the IK weight of each joint (:data:`PRISMATIC_WEIGHT` for prismatic joints)."""
-    prismatic = robot.axis_convention.unit < 0.005  # m per mm (rad per deg is 0.0175)
-    return np.where(prismatic, 1.0 / PRISMATIC_WEIGHT, 1.0)
+    return np.where(robot.axis_convention.prismatic, 1.0 / PRISMATIC_WEIGHT, 1.0)
 
 
 class _TcpKinematics:

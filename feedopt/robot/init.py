@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from feedopt.errors import InputError
 from feedopt.robot.robot_file import CONTROLLERS
-from feedopt.robot.urdf_chain import chain_model, check_arm, mimic_joints
+from feedopt.robot.urdf_chain import chain_model, check_arm, is_prismatic, mimic_joints
 from feedopt.textio import read_user_bytes
 
 #: Largest distance of the flange frame's origin from the last joint's axis that is taken for
@@ -104,7 +104,7 @@ def _outward(model: pin.Model, fid: int, urdf: Path) -> tuple[np.ndarray, float]
     pin.updateFramePlacements(model, data)
     last = model.njoints - 1
     joint = data.oMi[last]
-    if model.joints[last].shortname().startswith("JointModelP"):
+    if is_prismatic(model, last):
         raise InputError(f"{urdf}: the last joint '{model.names[last]}' is prismatic; a flange "
                          "turns with a revolute last joint (name the flange with --flange)")
     # the axis from the motion of a small turn of the last joint (any URDF axis, either sign)
@@ -141,7 +141,7 @@ def inspect_urdf(urdf: Path, flange: str | None = None) -> UrdfSummary:
     check_arm(model, flange_name, urdf, locked, raw)
     joints, kinds, scale = [], [], []
     for j in range(1, model.njoints):
-        prismatic = model.joints[j].shortname().startswith("JointModelP")
+        prismatic = is_prismatic(model, j)
         joints.append(model.names[j])
         kinds.append("prismatic" if prismatic else "revolute")
         scale.append(1e3 if prismatic else 180.0 / np.pi)

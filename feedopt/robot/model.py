@@ -38,7 +38,7 @@ from feedopt.robot.robot_file import (
     parse_robot_file,
     stiffness_unit_mistake,
 )
-from feedopt.robot.urdf_chain import chain_model, check_arm, mimic_joints
+from feedopt.robot.urdf_chain import chain_model, check_arm, is_prismatic, mimic_joints
 from feedopt.textio import read_user_bytes
 from feedopt.units import MM
 from feedopt.yamlio import read_yaml
@@ -144,8 +144,7 @@ def _scales(model: pin.Model) -> tuple[np.ndarray, tuple[str, ...]]:
     names, scale = [], []
     for j in range(1, model.njoints):
         names.append(model.names[j])
-        prismatic = model.joints[j].shortname().startswith("JointModelP")  # PX, PY, PZ, ...
-        scale.append(MM if prismatic else _RAD_PER_DEG)
+        scale.append(MM if is_prismatic(model, j) else _RAD_PER_DEG)
     return np.asarray(scale), tuple(names)
 
 

@@ -28,6 +28,11 @@ MIN_JOINTS, MAX_JOINTS = 6, 12
 MAX_REVOLUTE_RANGE, MAX_PRISMATIC_RANGE = 8.0 * 3.141592653589793, 100.0
 
 
+def is_prismatic(model: pin.Model, joint: int) -> bool:
+    """Whether pinocchio joint ``joint`` (1-based) slides (PX, PY, PZ, PrismaticUnaligned)."""
+    return model.joints[joint].shortname().startswith("JointModelP")
+
+
 def zero_axes(urdf_bytes: bytes) -> list[str]:
     """Joints whose ``<axis xyz>`` is the zero vector (pinocchio builds no rotation of it)."""
     try:
@@ -65,7 +70,7 @@ def check_arm(model: pin.Model, frame: str, urdf: Path, locked: tuple[str, ...],
                          f"plans arms of {MIN_JOINTS} to {MAX_JOINTS} joints{where}")
     lower, upper = np.asarray(model.lowerPositionLimit), np.asarray(model.upperPositionLimit)
     for j in range(1, model.njoints):
-        prismatic = model.joints[j].shortname().startswith("JointModelP")
+        prismatic = is_prismatic(model, j)
         span = float(upper[j - 1] - lower[j - 1])
         most = MAX_PRISMATIC_RANGE if prismatic else MAX_REVOLUTE_RANGE
         if np.isfinite(span) and span > most:

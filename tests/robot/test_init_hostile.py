@@ -3,7 +3,6 @@ each case exit 2 with a message naming the joint, frame or file, or the right re
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +76,7 @@ def test_names_survive_yaml(tmp_path, capsys):
     robot = load_robot(out)
     assert robot.name == "#1"
     assert yaml.safe_load((out / "robot.yaml").read_text())["urdf"] == "robot #2: a.urdf"
-    assert json.dumps("#1") in capsys.readouterr().out or robot.name == "#1"
+    assert "wrote" in capsys.readouterr().out
 
 
 def test_a_speed_that_is_no_speed_names_the_joint(tmp_path, capsys):
