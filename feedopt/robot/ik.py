@@ -98,7 +98,15 @@ class IKOptions:
         The sequential sweep visits samples about this far apart [m]: every k-th sample,
         k = floor(sweep_spacing / median sample spacing) (every sample on paths sampled at
         this spacing or coarser). The samples between are seeded by a cubic spline through
-        the swept ones, by chord length, and solved by the batched refinement.
+        the swept ones, by chord length, and solved by the batched refinement. 1 mm: a
+        large arm's joints move by ~1e-3 rad per mm of tool path, far inside one Newton
+        basin, and a seed the refinement moves by more than a branch flip sends the path
+        back to the sample-by-sample sweep (tests/robot/test_ik_batch.py agrees at 4 mm
+        across sharp corners). At 0.1 mm sampling it sweeps every 10th sample.
+    held_joint : int or None
+        A joint the Newton steps do not move: it keeps its value in ``q_start`` along the
+        whole path (the extra axis of a 7-axis robot held where the arm is stiffest,
+        :mod:`feedopt.robot.extra_axis`); None: every joint moves.
     """
 
     tol_position: float = 1e-10
@@ -114,15 +122,20 @@ class IKOptions:
     max_joint_step: float = float(np.deg2rad(5.0))
     max_condition: float = 100.0
     condition_length: float = 1.0
-    sweep_spacing: float = 1e-4
+    sweep_spacing: float = 1e-3
+    held_joint: int | None = None
 
     def __post_init__(self) -> None:
+        if self.held_joint is not None and (isinstance(self.held_joint, bool) or not isinstance(
+                self.held_joint, int | np.integer) or self.held_joint < 0):
+            raise ValueError(f"IKOptions.held_joint must be a joint index >= 0 or None, got "
+                             f"{self.held_joint!r}")
         for name in ("max_iterations", "max_iterations_first"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
                 raise ValueError(f"IKOptions.{name} must be an integer >= 1, got {value!r}")
         for f in fields(self):
-            if f.name in ("max_iterations", "max_iterations_first"):
+            if f.name in ("max_iterations", "max_iterations_first", "held_joint"):
                 continue
             value = getattr(self, f.name)
             low_ok = value >= 0 if f.name == "damping" else value > 0
@@ -169,9 +182,14 @@ def inverse_weights(robot: RobotModel) -> np.ndarray:
 class _TcpKinematics:
     """Pinocchio TCP placement and Jacobian of one robot, with its own work data."""
 
-    def __init__(self, robot: RobotModel) -> None:
+    def __init__(self, robot: RobotModel, held_joint: int | None = None) -> None:
         self.model, self.data, self.fid = robot.model, robot.model.createData(), robot.tcp_frame_id
         self.winv = inverse_weights(robot)
+        if held_joint is not None:
+            if held_joint >= robot.dof:
+                raise InputError(f"IK: held joint index {held_joint} is not a joint of "
+                                 f"{robot.name} (0..{robot.dof - 1})")
+            self.winv[held_joint] = 0.0  # W^-1 = 0: the Newton steps never move it
 
     def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """TCP rotation (3, 3), position (3,) and Jacobian (6, dof) (LOCAL_WORLD_ALIGNED)."""
@@ -371,7 +389,8 @@ def _damped_newton_step(
     scaled down so that no joint moves by more than ``max_step`` [rad].
     """
     _, x, info = lapack.dposv((jt * winv) @ jt.T + damping_eye, e)
-    dq = winv * (jt.T @ x) if info == 0 else np.linalg.lstsq(jt, e, rcond=None)[0]
+    dq = (winv * (jt.T @ x) if info == 0  # else least squares; a held joint's column is 0
+          else np.linalg.lstsq(jt * (winv > 0), e, rcond=None)[0])
     big = np.abs(dq).max()
     if big > max_step:
         dq *= max_step / big
@@ -649,7 +668,7 @@ def solve_path_ik(
     """
     options = IKOptions() if options is None else options
     task = _validate_task(robot, positions, tool_axes, q_start, x_axes)
-    kin = _TcpKinematics(robot)
+    kin = _TcpKinematics(robot, options.held_joint)
     jac = np.empty((task.n, 6, robot.dof)) if jacobians else None
     stride = _sweep_stride(task, options)
     solved = None
@@ -679,6 +698,8 @@ def _solve_strided(
     total = visit.size + task.n  # units of work: swept, then refined samples
     q_swept = _sweep(kin, task, options, visit, _offset(progress, 0, total))
     q = q_swept if stride == 1 else _seeds_between(task, visit, q_swept)
+    if options.held_joint is not None:  # the spline through a constant, exactly
+        q[:, options.held_joint] = task.q_start[options.held_joint]
     seeds = None if stride == 1 else q.copy()
     pos_err, ang_err, cond = _refine(kin, task, q, options, jac,
                                      _offset(progress, visit.size, total))

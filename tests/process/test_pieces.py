@@ -152,3 +152,50 @@ def test_pieces_beyond_the_samples_are_refused():
     with pytest.raises(InputError, match="of an engagement of 1 samples"):
         Engagement(np.zeros(1), np.ones(1), np.full(1, 1e-3),
                    EngagementPieces(np.array([3]), np.zeros(1), np.ones(1), np.full(1, 1e-3)))
+
+
+def _many_pieced(rng, n=60, first=7, last=50):
+    """Samples ``first..last`` pieced (1-3 disjoint pieces of their own depths), the others
+    on one interval: a chunk the bound sees on a raster."""
+    sample, entry, exit_, depth = [], [], [], []
+    for i in range(first, last):
+        cuts = np.sort(rng.uniform(0.0, math.pi, 2 * int(rng.integers(1, 4))))
+        for e, x in cuts.reshape(-1, 2):
+            if x - e > 1e-3:
+                sample.append(i), entry.append(e), exit_.append(x)
+                depth.append(rng.uniform(0.5e-3, 4e-3))
+    sample = np.array(sample)
+    hull_e = np.array([np.min(np.array(entry)[sample == i]) if np.any(sample == i) else 0.2
+                       for i in range(n)])
+    hull_x = np.array([np.max(np.array(exit_)[sample == i]) if np.any(sample == i) else 2.0
+                       for i in range(n)])
+    hull_a = np.array([np.max(np.array(depth)[sample == i]) if np.any(sample == i) else 2e-3
+                       for i in range(n)])
+    return Engagement(hull_e, hull_x, hull_a, EngagementPieces(
+        sample, np.array(entry), np.array(exit_), np.array(depth)))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_block_of_pieced_samples_sums_each_sample_s_own_pieces(seed):
+    # the consecutive pieced samples of a chunk are added by slices (forces._add_rows): each
+    # sample must get exactly its own pieces, computed here one piece at a time
+    rng = np.random.default_rng(seed)
+    tool = make_tool(30.0, 3)
+    eng = _many_pieced(rng)
+    angles = np.linspace(0.0, 2 * math.pi / 3, 17) + 0.003
+    split = milling_forces(tool, K, eng, angles, axial_slices=8)
+    at = milling_forces_at(tool, K, eng, np.tile(angles, (eng.n, 1)) + 0.0, axial_slices=8)
+    p = eng.pieces
+    for i in range(eng.n):
+        mine = np.flatnonzero(p.sample == i)
+        if mine.size:
+            parts = [milling_forces(tool, K, Engagement(p.entry[[j]], p.exit[[j]],
+                                                        p.axial_depth[[j]]), angles, 8)
+                     for j in mine]
+            want = sum(s.cutting[0] for s in parts), sum(s.edge_torque[0] for s in parts)
+        else:
+            one = milling_forces(tool, K, eng.hull_only().take(np.array([i])), angles, 8)
+            want = one.cutting[0], one.edge_torque[0]
+        for got in (split, at):
+            np.testing.assert_allclose(got.cutting[i], want[0], rtol=1e-12, atol=1e-9)
+            np.testing.assert_allclose(got.edge_torque[i], want[1], rtol=1e-12, atol=1e-12)

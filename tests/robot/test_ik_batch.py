@@ -78,7 +78,7 @@ def test_batched_ik_equals_the_per_sample_reference(kuka, six_dof):
 
 
 def test_strided_and_sample_by_sample_sweeps_agree_on_a_fine_path(kuka):
-    # 0.045 mm spacing: the default sweep (0.1 mm) visits every 2nd sample
+    # ~0.04 mm spacing: the default sweep (1 mm) visits every 25th sample
     n = 2001
     p = WORKPIECE_ORIGIN_M + np.stack([np.linspace(0, 0.04, n), 0.01 * np.sin(
         np.linspace(0, 3 * np.pi, n)), np.zeros(n)], axis=1)
@@ -88,7 +88,7 @@ def test_strided_and_sample_by_sample_sweeps_agree_on_a_fine_path(kuka):
     every = solve_path_ik(kuka, p, z, q0, options=IKOptions(sweep_spacing=1e-9))
     np.testing.assert_allclose(strided.q, every.q, rtol=0, atol=JOINT_TOL)
     task = ik_module._validate_task(kuka, p, z, q0, None)
-    assert ik_module._sweep_stride(task, IKOptions()) == 2
+    assert ik_module._sweep_stride(task, IKOptions()) == 25
 
 
 def test_a_turning_tool_axis_is_swept_sample_by_sample(kuka):
