@@ -293,11 +293,7 @@ def prepare(
         nearest_compliance = along.compliance
         along, schedule = redundancy.along, redundancy.schedule
         times["redundancy"] = time.perf_counter() - t0
-        progress(f"[4/5] redundancy: {redundancy.status.value}: T* {redundancy.t_star_nearest:.2f}"
-                 f" s nearest -> {redundancy.t_star:.2f} s ({redundancy.gain:.2%}), psi "
-                 f"{np.degrees(redundancy.psi.min()):.1f}..{np.degrees(redundancy.psi.max()):.1f}"
-                 f" deg, {redundancy.evaluations} evaluations ({times['redundancy']:.2f} s)"
-                 + (f"; {redundancy.reason}" if redundancy.reason else ""))
+        progress(f"[4/5] redundancy: {redundancy.describe()}")
         t0 = time.perf_counter() - times["bounds"]
     v_max = schedule.bound.v_max
     warnings += feed_range_warnings(process.table, [
@@ -361,6 +357,11 @@ def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
                                 max_evaluations=opts.max_evaluations,
                                 path_acceleration=opts.path_acceleration)
     with progress_bar(progress, "[4/5] redundancy") as bar:
+        if robot.dof == 7:
+            from feedopt.robot.extra_axis import choose_extra_axis
+
+            return choose_extra_axis(robot, robot.held_axis(), task(coarse, coarse_nearest),
+                                     task(front, nearest), sc.robot.stiffness, options, bar)
         return optimise_redundancy(robot, task(coarse, coarse_nearest), task(front, nearest),
                                    sc.robot.stiffness, options, progress=bar)
 
@@ -441,13 +442,21 @@ def plan_and_verify(
 
 
 def _check_redundancy(robot: RobotModel, scenario: Scenario) -> None:
-    """InputError for ``robot.redundancy: optimise`` on a robot other than a 6-axis arm (its
-    search is over the rotation about the tool axis alone; a 7th axis or a track is resolved
-    by the weighted nearest IK, :mod:`feedopt.robot.ik`)."""
-    if scenario.robot.redundancy == "optimise" and robot.dof != 6:
-        raise InputError(f"robot.redundancy: optimise searches the rotation about the tool axis "
-                         f"of a 6-axis arm; robot {robot.name} has {robot.dof} joints: use "
-                         "redundancy: nearest (its extra axes follow the weighted nearest IK)")
+    """InputError for ``robot.redundancy: optimise`` on a robot it cannot search: a 6-axis
+    arm's is the rotation about the tool axis, a 7-axis robot's its extra axis
+    (:meth:`RobotModel.held_axis`), which a 7-joint arm must name."""
+    if scenario.robot.redundancy != "optimise" or robot.dof == 6:
+        return
+    if robot.dof == 7 and robot.held_axis() is None:
+        raise InputError(f"robot.redundancy: optimise holds the extra axis of a 7-axis robot; "
+                         f"robot {robot.name} does not say which joint it is: add "
+                         f"'extra_axis: <joint>' to its robot.yaml (one of "
+                         f"{', '.join(robot.joint_names)}; a KUKA LBR: its third joint, the "
+                         "controller's E1), or use redundancy: nearest")
+    if robot.dof > 7:
+        raise InputError(f"robot.redundancy: optimise searches one extra axis (6- and 7-axis "
+                         f"robots); robot {robot.name} has {robot.dof} joints: use redundancy: "
+                         "nearest (its extra axes follow the weighted nearest IK)")
 
 
 def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
@@ -495,14 +504,16 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
     nominal = prepared.placement.positions
     q_start = start_joints(prepared.robot, sc)
     x_axes = _x_axes(sc, prepared.placement)
-    red = prepared.redundancy
-    if red is not None and red.x_axes is not None:  # keep the optimised psi(s)
+    red, ik_options = prepared.redundancy, None
+    if getattr(red, "x_axes", None) is not None:  # keep the optimised psi(s)
         x_axes, q_start = red.x_axes, red.q_start
+    if getattr(red, "ik_options", None) is not None:  # keep the held extra axis
+        ik_options, q_start = red.ik_options, red.q_start
     out: dict[str, LawResult] = {}
     def along_at(commanded: np.ndarray) -> RobotAlongPath:
         return robot_along_path(prepared.robot, samples.s, commanded,
                                 prepared.placement.tool_axes, q_start, sc.robot.stiffness,
-                                x_axes=x_axes,
+                                x_axes=x_axes, ik_options=ik_options,
                                 breaks=interior_stop_indices(prepared.path.stops, samples.s))
 
     for law, res in results.items():

@@ -85,7 +85,9 @@ class RobotSection(_Strict):
     redundancy: Literal["nearest", "optimise"] = Field(
         "nearest", description="the free rotation about the tool axis: the nearest IK "
         "solution, or a smooth profile psi(s) optimised to make the robot stiff where the "
-        "force is (lower T*, feedopt.robot.redundancy)")
+        "force is (lower T*, feedopt.robot.redundancy); on a 7-axis robot (an arm on a track, "
+        "a 7-joint arm) optimise holds its extra axis (robot.yaml extra_axis) at the value "
+        "that lowers T* (feedopt.robot.extra_axis)")
     redundancy_options: RedundancySection = RedundancySection()
 
     @model_validator(mode="after")

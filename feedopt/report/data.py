@@ -193,6 +193,9 @@ class RedundancySeries:
     angle_before_deg, angle_after_deg : (n,) stiffest direction from the feed direction
     t_star_before, t_star_after : T* [s]
     status : what the optimisation did (feedopt.robot.redundancy.RedundancyStatus value)
+    profile_label : the top panel's quantity: psi, or a 7-axis robot's held extra axis
+    profile_nearest : (n,) that quantity with the nearest IK (None: zero, psi)
+    title : the top panel's title
     """
 
     s_mm: np.ndarray
@@ -204,6 +207,9 @@ class RedundancySeries:
     t_star_before: float
     t_star_after: float
     status: str
+    profile_label: str = "psi [deg]"
+    profile_nearest: np.ndarray | None = None
+    title: str = ""
 
 
 def redundancy_series(result, nearest_compliance: np.ndarray, placement) -> RedundancySeries:
@@ -214,13 +220,24 @@ def redundancy_series(result, nearest_compliance: np.ndarray, placement) -> Redu
     axes, feed = placement.tool_axes, placement.frames[:, :, 0]
     before = stiffness_ellipses(nearest_compliance, axes)
     after = stiffness_ellipses(result.along.compliance, axes)
+    profile = {}
+    if hasattr(result, "joint_name"):  # feedopt.robot.extra_axis.ExtraAxisResult
+        held = result.along.q[:, result.joint]
+        profile = dict(profile_label=f"{result.joint_name} [{result.unit}]",
+                       profile_nearest=result.display(result.value_nearest),
+                       title=f"extra axis {result.joint_name} ({result.status.value}), held "
+                       f"(purple) against the nearest IK (grey): T* {result.t_star_nearest:.2f}"
+                       f" s nearest -> {result.t_star:.2f} s")
+        shown = result.display(held)
+    else:
+        shown = np.degrees(result.psi)
     return RedundancySeries(
-        s_mm=result.s / MM, psi_deg=np.degrees(result.psi),
+        s_mm=result.s / MM, psi_deg=shown,
         stiffness_before=before.stiffness * 1e-6, stiffness_after=after.stiffness * 1e-6,
         angle_before_deg=np.degrees(before.angle_to(feed, axes)),
         angle_after_deg=np.degrees(after.angle_to(feed, axes)),
         t_star_before=result.t_star_nearest, t_star_after=result.t_star,
-        status=result.status.value)
+        status=result.status.value, **profile)
 
 
 @dataclass(frozen=True)

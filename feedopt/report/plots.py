@@ -336,20 +336,22 @@ def plot_redundancy(data: ReportData) -> Figure | None:
         return None
     fig = _new_figure(10, 8, 3, 1)
     ax_psi, ax_k, ax_a = fig.subplots(3, 1, sharex=True)
+    if r.profile_nearest is not None:
+        _plot(ax_psi, r.s_mm, r.profile_nearest, color="0.5", lw=1.0)
     _plot(ax_psi, r.s_mm, r.psi_deg, color="tab:purple", lw=1.2)
-    ax_psi.set_ylabel("psi [deg]")
-    ax_psi.set_title(f"rotation about the tool axis ({r.status}): T* {r.t_star_before:.2f} s "
-                     f"nearest -> {r.t_star_after:.2f} s")
+    ax_psi.set_ylabel(r.profile_label)
+    ax_psi.set_title(r.title or f"rotation about the tool axis ({r.status}): T* "
+                     f"{r.t_star_before:.2f} s nearest -> {r.t_star_after:.2f} s")
     for k, style in ((0, "-"), (1, "--")):
         which = "stiffest" if k == 0 else "softest"
         _plot(ax_k, r.s_mm, r.stiffness_before[:, k], color="0.5", ls=style,
               label=f"nearest IK, {which}")
         _plot(ax_k, r.s_mm, r.stiffness_after[:, k], color="tab:purple", ls=style,
-              label=f"psi(s), {which}")
+              label=f"optimised, {which}")
     ax_k.set_ylabel("in-plane stiffness [N/um]")
     ax_k.legend(fontsize=8, loc="best")
     _plot(ax_a, r.s_mm, r.angle_before_deg, color="0.5", lw=0.8, label="nearest IK")
-    _plot(ax_a, r.s_mm, r.angle_after_deg, color="tab:purple", lw=0.8, label="psi(s)")
+    _plot(ax_a, r.s_mm, r.angle_after_deg, color="tab:purple", lw=0.8, label="optimised")
     ax_a.set_ylabel("stiffest direction\nfrom the feed [deg]")
     ax_a.set_xlabel("s [mm]")
     ax_a.legend(fontsize=8, loc="best")
@@ -395,9 +397,10 @@ FIGURES: tuple[FigureSpec, ...] = (
     ),
     FigureSpec(
         "redundancy",
-        "The rotation about the tool axis psi(s) chosen by robot.redundancy: optimise, the "
-        "stiffness ellipse in the plane normal to the tool axis with the nearest IK and with "
-        "psi(s) (principal stiffnesses and the stiffest direction's angle from the feed).",
+        "The rotation about the tool axis psi(s) chosen by robot.redundancy: optimise (on a "
+        "7-axis robot: its extra axis, held), the stiffness ellipse in the plane normal to "
+        "the tool axis with the nearest IK and with the optimised posture (principal "
+        "stiffnesses and the stiffest direction's angle from the feed).",
         plot_redundancy,
     ),
 )

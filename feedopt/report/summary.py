@@ -88,6 +88,8 @@ def _redundancy(result) -> dict | None:
     """summary.json ``scenario.redundancy`` (robot.redundancy: optimise), or None."""
     if result is None:
         return None
+    if hasattr(result, "summary"):  # feedopt.robot.extra_axis.ExtraAxisResult
+        return result.summary()
     return {"status": result.status.value, "reason": result.reason,
             "objective": result.objective, "t_star_nearest_s": result.t_star_nearest,
             "t_star_s": result.t_star, "gain": result.gain,

@@ -88,6 +88,10 @@ class RobotModel:
     data_warnings : tuple of str
         ``robot.yaml``'s ``warnings:``: caveats on its numbers (placeholders, unverified
         sources) that every run with this robot repeats in its output, summary and report.
+    extra_axis : int or None
+        ``robot.yaml``'s ``extra_axis``: the index of the joint of a 7-axis robot that
+        ``robot.redundancy: optimise`` holds (:mod:`feedopt.robot.extra_axis`); None: not
+        stated (an arm on a track: its prismatic joint, :meth:`held_axis`).
     """
 
     name: str
@@ -104,6 +108,18 @@ class RobotModel:
     controller: str = "generic"
     data_warnings: tuple[str, ...] = field(default=())
     axes: AxisConvention | None = None
+    extra_axis: int | None = None
+
+    def held_axis(self) -> int | None:
+        """The joint a 7-axis robot holds for ``robot.redundancy: optimise``: robot.yaml's
+        ``extra_axis``, else the one prismatic joint of an arm on a track; None for a
+        6-axis arm or when it is not stated."""
+        if self.dof != 7:
+            return None
+        if self.extra_axis is not None:
+            return self.extra_axis
+        prismatic = np.flatnonzero(self.axis_convention.prismatic)
+        return int(prismatic[0]) if prismatic.size == 1 else None
 
     @property
     def axis_convention(self) -> AxisConvention:
@@ -331,7 +347,23 @@ def load_robot(directory: str | Path) -> RobotModel:
         controller=doc.controller.type,
         data_warnings=tuple(" ".join(w.split()) for w in doc.warnings),
         axes=axis_convention(doc.controller.axes, names, scale, yaml_path),
+        extra_axis=_extra_axis(doc, names, yaml_path),
     )
+
+
+def _extra_axis(doc: RobotFile, names: tuple[str, ...], yaml_path: Path) -> int | None:
+    """robot.yaml's ``extra_axis`` as a joint index (InputError naming the joints)."""
+    if doc.extra_axis is None:
+        return None
+    if len(names) != 7:
+        raise InputError(f"{yaml_path}: extra_axis '{doc.extra_axis}' is for 7-axis robots; "
+                         f"this one has {len(names)} joints ({', '.join(names)}): remove it")
+    if doc.extra_axis not in names:
+        close = difflib.get_close_matches(doc.extra_axis, list(names), n=1)
+        hint = f"did you mean '{close[0]}'? " if close else ""
+        raise InputError(f"{yaml_path}: extra_axis '{doc.extra_axis}' is not a joint; "
+                         f"{hint}the joints are {', '.join(names)}")
+    return names.index(doc.extra_axis)
 
 
 def six_axes_only(robot: RobotModel, what: str) -> str | None:

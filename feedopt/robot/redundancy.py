@@ -337,6 +337,13 @@ class RedundancyResult:
         """Relative reduction of T*, ``1 - t_star / t_star_nearest``."""
         return 1.0 - self.t_star / self.t_star_nearest
 
+    def describe(self) -> str:
+        """One progress line."""
+        return (f"{self.status.value}: T* {self.t_star_nearest:.2f} s nearest -> "
+                f"{self.t_star:.2f} s ({self.gain:.2%}), psi {np.degrees(self.psi.min()):.1f}.."
+                f"{np.degrees(self.psi.max()):.1f} deg, {self.evaluations} evaluations "
+                f"({self.seconds:.2f} s)" + (f"; {self.reason}" if self.reason else ""))
+
 
 # --------------------------------------------------------------------------- geometry
 

@@ -108,6 +108,10 @@ class RobotFile(schema.Strict):
     tcp_frame: str | None = Field(None, description="a URDF frame that already is the TCP "
                                   "(+z from the tip into the spindle)")
     tool: ToolSection = Field(description="the tool on the flange (required)")
+    extra_axis: str | None = Field(
+        None, description="7-axis robots: the joint robot.redundancy: optimise holds where the "
+        "arm is stiffest for the cut (a KUKA LBR: its third joint, the controller's E1; "
+        "default: the one prismatic joint of an arm on a track)")
     joint_stiffness_mnm_per_rad: dict[str, list[FiniteFloat] | str] = Field(
         description="named stiffness sets, e.g. cp: [...], dpp: [...], and source: '...' "
         "[MN m/rad per revolute joint, MN/m per prismatic joint]")

@@ -209,11 +209,11 @@ def test_a_seven_axis_arm_plans_and_verifies(tmp_path, quick_scenario, capsys):
     six["robot"]["start_configuration_deg"] = [0, 40, 0, -80, 0, 60, 0]
     p.write_text(yaml.safe_dump(six))
     doc = yaml.safe_load(p.read_text())
-    doc["robot"]["redundancy"] = "optimise"  # psi search: a 6-axis arm's
+    doc["robot"]["redundancy"] = "optimise"  # holds the extra axis robot.yaml must name
     p.write_text(yaml.safe_dump(doc))
     capsys.readouterr()
     assert main(["validate", str(p)]) == 2
-    assert "has 7 joints: use redundancy: nearest" in capsys.readouterr().err
+    assert "does not say which joint it is" in capsys.readouterr().err
 
 
 def _on_a_track(tmp_path: Path) -> Path:
