@@ -108,9 +108,14 @@ def chain_model(model: pin.Model, frame: str, urdf: Path,
                 f"'{frame}' (a parallelogram drive written as a mimic); feedopt plans one "
                 "independent value per joint: model the parallelogram as its equivalent serial "
                 "joint in the URDF (the controller's axis), without the mimic")
-        if model.joints[j].nq != model.joints[j].nv:
-            raise InputError(f"{urdf}: joint '{name}' is continuous (unbounded); give it a "
-                             "revolute type with a finite <limit lower upper>")
+        joint = model.joints[j]
+        if joint.nq != 1 or joint.nv != 1:
+            kind = ("continuous (unbounded)" if joint.nq == 2 and joint.nv == 1 else
+                    f"a {joint.shortname()} joint of {joint.nv} degrees of freedom "
+                    "(floating or planar)")
+            raise InputError(f"{urdf}: joint '{name}' is {kind}; feedopt plans revolute and "
+                             "prismatic joints with a finite <limit lower upper>: give it one "
+                             "of those types")
     lock = [j for j in range(1, model.njoints) if j not in chain]
     if not lock:
         return model, ()

@@ -158,6 +158,10 @@ def _variant(tmp_path: Path, source: Path, old: str, new: str) -> Path:
      "joint 'joint_a3' mimics 'joint_a2' on the arm's own chain"),
     ('<joint name="joint_a5" type="revolute">', '<joint name="joint_a5" type="continuous">',
      "joint 'joint_a5' is continuous"),
+    ('<joint name="joint_a5" type="revolute">', '<joint name="joint_a5" type="floating">',
+     "joint 'joint_a5' is a JointModelFreeFlyer joint of 6 degrees of freedom"),
+    ('<joint name="joint_a5" type="revolute">', '<joint name="joint_a5" type="planar">',
+     "joint 'joint_a5' is a JointModelPlanar joint of 3 degrees of freedom"),
 ])
 def test_init_refuses_what_feedopt_cannot_plan_by_name(tmp_path, capsys, old, new, message):
     urdf = _variant(tmp_path, PUBLISHED / "kr120r2500pro.urdf", old, new)
