@@ -166,10 +166,11 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_staging(parent: Path, name: str) -> list[Path]:
-    """Remove staging folders for ``name`` in ``parent`` whose run is no longer alive."""
+def remove_stale_staging(parent: Path, name: str, tag: str = "feedopt") -> list[Path]:
+    """Remove staging folders for ``name`` in ``parent`` (:func:`staging_folder` with
+    ``tag``) whose run is no longer alive (killed before it could clean up)."""
     removed = []
-    for folder in parent.glob(f".{name}.feedopt-*"):
+    for folder in parent.glob(f".{name}.{tag}-*"):
         mark = folder / STAGING_MARKER
         try:
             pid = int(read_user_text(mark, "staging marker", max_bytes=64).strip())
@@ -197,9 +198,7 @@ def open_destination(out: Path, protected: Iterable[Path], overwrite: bool,
         for p in reversed(missing):
             p.mkdir()
             created.append(p)
-        remove_stale_staging(target.parent, target.name)
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.feedopt-", dir=target.parent))
-        (staging / STAGING_MARKER).write_text(f"{os.getpid()}\n", encoding="utf-8")
+        staging = staging_folder(target, "feedopt")
     except OSError as exc:
         for p in reversed(created):
             _rmdir_quiet(p)
@@ -208,6 +207,20 @@ def open_destination(out: Path, protected: Iterable[Path], overwrite: bool,
             f"--out {out}: cannot write in {target.parent} ({reason}); choose a folder you can "
             "write to") from None
     return Destination(out=target, staging=staging, kind=kind, created_parents=tuple(created))
+
+
+def staging_folder(target: Path, tag: str) -> Path:
+    """A fresh hidden folder beside ``target`` to write into and rename to it at the end
+    (the stale ones of killed runs removed first; its marker names this process), with the
+    mode ``mkdir`` would give it (0777 less the umask; ``mkdtemp``'s 0700 would
+    make a run's output unreadable to the rest of a shared project folder)."""
+    remove_stale_staging(target.parent, target.name, tag)
+    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.{tag}-", dir=target.parent))
+    mask = os.umask(0o022)
+    os.umask(mask)
+    staging.chmod(0o777 & ~mask)
+    (staging / STAGING_MARKER).write_text(f"{os.getpid()}\n", encoding="utf-8")
+    return staging
 
 
 def _rmdir_quiet(path: Path) -> None:

@@ -135,3 +135,36 @@ def test_stale_staging_of_a_dead_run_is_removed_and_others_are_kept(tmp_path) ->
     removed = outdir.remove_stale_staging(tmp_path, "run")
     assert removed == [stale]
     assert alive.exists() and lookalike.exists()
+
+
+@pytest.mark.parametrize("mask", [0o022, 0o077, 0o002])
+def test_the_output_folder_has_the_mode_mkdir_would_give_it(tmp_path, mask) -> None:
+    old = os.umask(mask)
+    try:
+        out = tmp_path / f"run{mask:o}"
+        dest = outdir.open_destination(out, protected=[], overwrite=False)
+        _stage(dest, {"x.csv": "1"})
+        outdir.commit(dest)
+        (tmp_path / "plain").mkdir(exist_ok=True)
+        want = (tmp_path / "plain").stat().st_mode & 0o777
+        (tmp_path / "plain").rmdir()
+    finally:
+        os.umask(old)
+    assert out.stat().st_mode & 0o777 == want == 0o777 & ~mask
+
+
+def test_a_killed_robot_init_is_cleaned_by_the_next(tmp_path, capsys) -> None:
+    from pathlib import Path
+
+    from feedopt.cli import main
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    stale = tmp_path / ".r.robot-init-abc"  # what a SIGKILLed init leaves
+    stale.mkdir()
+    (stale / STAGING_MARKER).write_text(dead.stdout)
+    urdf = Path(__file__).parent / "data" / "robots" / "published" / "kr120r2500pro.urdf"
+    assert main(["robot", "init", str(urdf), "--out", str(tmp_path / "r")]) == 0
+    assert not stale.exists()
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == ["kr120r2500pro.urdf",
+                                                                  "robot.yaml"]

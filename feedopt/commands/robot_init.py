@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import tempfile
 from pathlib import Path
 
 from feedopt.errors import InputError
+from feedopt.outdir import STAGING_MARKER, staging_folder
 from feedopt.robot.robot_file import CONTROLLERS
 
 
@@ -63,8 +63,7 @@ def run(args: argparse.Namespace) -> int:
     text = robot_yaml_text(summary, urdf.name, args.tool_length_mm, args.controller)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.robot-init-",
-                                        dir=target.parent))
+        staging = staging_folder(target, "robot-init")
     except OSError as exc:
         raise InputError(f"--out {args.out}: cannot write in {target.parent} "
                          f"({exc.strerror or type(exc).__name__}); choose a folder you can "
@@ -78,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(str(exc).replace(str(staging), str(args.out))) from None
         if target.exists():
             target.rmdir()
+        (staging / STAGING_MARKER).unlink()  # kept until now: a killed init is cleaned later
         staging.rename(target)
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
