@@ -71,6 +71,20 @@ def add_parser(subparsers) -> None:
                    help="how long to wait for the controller's first packet (default 30 s)")
     p.add_argument("--sen-type", default="ImFree",
                    help="Sen Type of the answers: the configuration's SENTYPE (default ImFree)")
+    p.add_argument("--correction", choices=("cartesian", "axis"), default=None,
+                   help="what the answers correct: the TCP pose (RKorr X..C, default) or the "
+                   "axes (AK A1..A6 [deg] from the CSV's q columns, the controller's axis "
+                   "values: ROS-Industrial's, kroshu's and FZI's RSI setups); default: "
+                   "--config's, else cartesian")
+    p.add_argument("--config", metavar="XML",
+                   help="the controller's RSI Ethernet configuration: answer with the element "
+                   "names, the Stop element and the SENTYPE it lists (e.g. AK.A1..A6, ImFree)")
+    p.add_argument("--ipoc-step", type=int, default=None, metavar="N",
+                   help="IPOC increase per packet the controller sends (default: 1 or the "
+                   "cycle in ms are accepted; which one is reported)")
+    p.add_argument("--no-start-check", action="store_true",
+                   help="start even when the packets carry no RIst (no AIPos in axis mode), "
+                   "so the robot's start pose cannot be checked: only if you made sure")
     p.add_argument("--realtime", action="store_true",
                    help="ask for real-time scheduling (SCHED_FIFO; Linux, needs CAP_SYS_NICE): "
                    "what keeps answers within the cycle on a loaded machine")
@@ -111,7 +125,34 @@ def _settings(args: argparse.Namespace, cycle_s: float):
         pid=PidGains.thesis() if args.pid else None,
         measurement=Measurement.TRACKER if tracker else Measurement.RIST,
         tracker_listen=tracker, pid_limit_mm=args.pid_limit_mm,
-        pid_limit_deg=args.pid_limit_deg)
+        pid_limit_deg=args.pid_limit_deg, answer_format=_answer_format(args),
+        ipoc_step=_ipoc_step(args.ipoc_step), start_check=not args.no_start_check)
+
+
+def _answer_format(args: argparse.Namespace):
+    """The answers' document: --config's, else feedopt's own for --correction (None: the
+    default, Cartesian); a --correction that contradicts --config is refused."""
+    from feedopt.rsi.protocol import AnswerFormat, CorrectionSpace, read_ethernet_config
+
+    space = None if args.correction is None else CorrectionSpace(args.correction)
+    if args.config is None:
+        return None if space is None else AnswerFormat.default(space, args.sen_type)
+    fmt = read_ethernet_config(args.config)
+    if space is not None and space is not fmt.space:
+        raise InputError(f"--correction {space.value}, but {args.config} answers with "
+                         f"{fmt.element} ({', '.join(fmt.names)}): {fmt.space.value} "
+                         "corrections (leave --correction out to follow the configuration)")
+    if args.sen_type != "ImFree" and args.sen_type != fmt.sen_type:
+        raise InputError(f"--sen-type {args.sen_type}, but {args.config}'s SENTYPE is "
+                         f"{fmt.sen_type} (leave --sen-type out to follow the configuration)")
+    return fmt
+
+
+def _ipoc_step(step: int | None) -> int | None:
+    if step is not None and step < 1:
+        raise InputError(f"--ipoc-step must be >= 1 (1: the controller counts packets; 4: "
+                         f"milliseconds at 4 ms), got {step}")
+    return step
 
 
 def _controller(text: str | None) -> tuple[str, int | None] | None:
@@ -139,6 +180,7 @@ def run(args: argparse.Namespace) -> int:
     from feedopt.export.rsi import read_rsi_csv
     from feedopt.outfile import check_output_file, write_atomically
     from feedopt.rsi.corrections import check_steps, plan_from_table
+    from feedopt.rsi.protocol import CorrectionSpace
     from feedopt.rsi.streamer import Streamer, StreamStatus
     from feedopt.scenario import RSI_CYCLES_MS
 
@@ -148,7 +190,9 @@ def run(args: argparse.Namespace) -> int:
     cycle_s = args.cycle_ms * 1e-3
     settings = _settings(args, cycle_s)
     table = _read_trajectory(args.csv, read_rsi_csv)
-    plan = plan_from_table(table, cycle_s, args.csv)
+    space = (settings.answer_format.space if settings.answer_format is not None
+             else CorrectionSpace.CARTESIAN)
+    plan = plan_from_table(table, cycle_s, args.csv, space)
     check_steps(plan, settings.max_step_mm, settings.max_step_deg)
     log = None if args.log is None else check_output_file(args.log, "--log", example="cycles.csv",
                                                           inputs=[args.csv])
@@ -163,7 +207,8 @@ def run(args: argparse.Namespace) -> int:
                       file=sys.stderr)
         print(f"feedopt stream: listening on {host}:{port} (UDP) for the controller; "
               f"{len(plan)} rows of {args.cycle_ms:g} ms ({plan.t_s[-1]:.3f} s), "
-              f"{settings.mode.value} mode" + (", PID on" if settings.pid else ""), flush=True)
+              f"{settings.mode.value} mode, {plan.space.value} corrections"
+              + (", PID on" if settings.pid else ""), flush=True)
         if settings.mode.value == "relative":
             print("feedopt stream: relative mode: the Ethernet configuration's RKorr elements "
                   "need HOLDON=\"0\"", flush=True)

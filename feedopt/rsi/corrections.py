@@ -18,6 +18,7 @@ z axis exactly; elsewhere it is a first-order correction, see the report of issu
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ import numpy as np
 from feedopt import floattext
 from feedopt.errors import InputError
 from feedopt.floattext import refuse_non_finite
+from feedopt.rsi.protocol import CorrectionSpace
 
 if TYPE_CHECKING:  # types only: the export package imports this module (rsi_program)
     from feedopt.export.rsi import RsiTable
@@ -36,6 +38,8 @@ if TYPE_CHECKING:  # types only: the export package imports this module (rsi_pro
 #: Columns of ``<law>_rsi.csv``: the RKorr answer of every cycle.
 COLUMNS = ("t_s", "rkorr_x_mm", "rkorr_y_mm", "rkorr_z_mm", "rkorr_a_deg", "rkorr_b_deg",
            "rkorr_c_deg")
+#: Its columns in axis mode: the AK answer (axis corrections, controller axis values).
+AXIS_COLUMNS = ("t_s", *(f"ak_a{i}_deg" for i in range(1, 7)))
 #: Row times may differ from k * cycle by this much [s] (the exported tables: ~1e-14 s).
 CYCLE_TOLERANCE_S = 1e-6
 
@@ -61,9 +65,13 @@ class CorrectionPlan:
     t_s : (n,) row times [s], ``cycle_s`` apart.
     start_pose : (6,) X, Y, Z [mm], A, B, C [deg] of row 0: where the robot must be at RSI_ON.
     start_q_deg : (6,) joint angles of row 0 [deg].
-    absolute : (n, 6) total correction of every row [mm, deg]; row 0 is zero.
+    absolute : (n, 6) total correction of every row [mm, deg]; row 0 is zero. In axis
+        mode (``space``) the controller's axis values less those of row 0 [deg].
     cycle_s : controller cycle the rows are spaced by [s].
     source : the file the plan was read from (for messages).
+    space : what is corrected: the TCP pose (RKorr) or the axes (AK / AKorr).
+    tcp_steps_mm : (n - 1,) TCP translation from row to row [mm] (the speed the stop and
+        resume ramps are sized by; in Cartesian mode that of ``absolute``).
     """
 
     t_s: np.ndarray
@@ -72,9 +80,17 @@ class CorrectionPlan:
     absolute: np.ndarray
     cycle_s: float
     source: str = ""
+    space: CorrectionSpace = CorrectionSpace.CARTESIAN
+    tcp_steps_mm: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
+
+    def tcp_steps(self) -> np.ndarray:
+        """(n - 1,) TCP translation per cycle [mm]."""
+        if self.tcp_steps_mm is not None:
+            return self.tcp_steps_mm
+        return step_sizes(self.absolute)[0]
 
     @property
     def relative(self) -> np.ndarray:
@@ -124,9 +140,11 @@ def plan_from_poses(t_s: np.ndarray, pose: np.ndarray, start_q_deg: np.ndarray,
                           cycle_s=float(cycle_s), source=source)
 
 
-def plan_from_table(table: RsiTable, cycle_s: float, source: str = "RSI CSV") -> CorrectionPlan:
+def plan_from_table(table: RsiTable, cycle_s: float, source: str = "RSI CSV",
+                    space: CorrectionSpace = CorrectionSpace.CARTESIAN) -> CorrectionPlan:
     """Corrections of ``table`` (read with :func:`feedopt.export.rsi.read_rsi_csv`); see
-    :func:`plan_from_poses`."""
+    :func:`plan_from_poses`. In axis mode the corrections are of its q columns (the
+    controller's axis values, robot.yaml's ``controller.axes``)."""
     joints = table.q_deg.shape[1]
     if joints != 6:
         raise InputError(f"{source}: {joints} joint columns (q1_deg..q{joints}_deg); RSI "
@@ -134,7 +152,20 @@ def plan_from_table(table: RsiTable, cycle_s: float, source: str = "RSI CSV") ->
                          f"{joints}-axis robot")
     pose = np.column_stack([table.x_mm, table.y_mm, table.z_mm, table.a_deg, table.b_deg,
                             table.c_deg])
-    return plan_from_poses(table.t_s, pose, table.q_deg[0], cycle_s, source)
+    plan = plan_from_poses(table.t_s, pose, table.q_deg[0], cycle_s, source)
+    if space is CorrectionSpace.CARTESIAN:
+        return plan
+    return axis_plan(plan, table.q_deg)
+
+
+def axis_plan(plan: CorrectionPlan, q_deg: np.ndarray) -> CorrectionPlan:
+    """``plan`` as axis corrections: the controller axis values ``q_deg`` (n, 6) [deg] less
+    row 0's (AK / AKorr, ``RSI_ON`` with an AXISCORR object)."""
+    q = np.asarray(q_deg, dtype=float)
+    absolute = q - q[0]
+    absolute.flags.writeable = False
+    return dataclasses.replace(plan, absolute=absolute, space=CorrectionSpace.AXIS,
+                               start_q_deg=q[0].copy(), tcp_steps_mm=plan.tcp_steps())
 
 
 def step_sizes(absolute: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -146,10 +177,15 @@ def step_sizes(absolute: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def check_steps(plan: CorrectionPlan, max_step_mm: float, max_step_deg: float) -> None:
     """InputError naming the first row whose step from the previous one exceeds the per-cycle
-    limits: the streamer would have to clip it, which would leave the planned path."""
+    limits: the streamer would have to clip it, which would leave the planned path. In axis
+    mode every axis's step is in deg (``max_step_deg``)."""
     trans, ang = step_sizes(plan.absolute)
-    for values, limit, unit, option in ((trans, max_step_mm, "mm", "--max-step-mm"),
-                                        (ang, max_step_deg, "deg", "--max-step-deg")):
+    checks = [(trans, max_step_mm, "mm", "--max-step-mm"),
+              (ang, max_step_deg, "deg", "--max-step-deg")]
+    if plan.space is CorrectionSpace.AXIS:
+        axis = np.max(np.abs(np.diff(plan.absolute, axis=0)), axis=1, initial=0.0)
+        checks = [(axis, max_step_deg, "deg of an axis", "--max-step-deg")]
+    for values, limit, unit, option in checks:
         bad = np.flatnonzero(values > limit)
         if bad.size:
             k = int(bad[0]) + 1
@@ -161,12 +197,17 @@ def check_steps(plan: CorrectionPlan, max_step_mm: float, max_step_deg: float) -
 
 
 def limit_step(previous: np.ndarray, desired: np.ndarray, max_step_mm: float,
-               max_step_deg: float) -> np.ndarray:
+               max_step_deg: float,
+               space: CorrectionSpace = CorrectionSpace.CARTESIAN) -> np.ndarray:
     """``desired`` moved towards ``previous`` so that the step between them is within the
     per-cycle limits (translation norm <= ``max_step_mm``, each angle <= ``max_step_deg``);
-    the direction of each part is kept."""
+    the direction of each part is kept. In axis mode the whole step is scaled so that no
+    axis moves more than ``max_step_deg`` (the direction in joint space is kept)."""
     step = np.asarray(desired, dtype=float) - previous
     out = step.copy()
+    if space is CorrectionSpace.AXIS:
+        largest = float(np.max(np.abs(step)))
+        return previous + (out * (max_step_deg / largest) if largest > max_step_deg else out)
     norm = float(np.linalg.norm(step[:3]))
     if norm > max_step_mm:
         out[:3] *= max_step_mm / norm
@@ -186,14 +227,18 @@ def write_corrections_csv(path: str | Path, plan: CorrectionPlan, mode: Correcti
     """Write ``<law>_rsi.csv``: ``#`` lines (mode, start pose, units), header, one row per cycle
     with the RKorr of that cycle in ``mode`` (floats as shortest round-trip decimals)."""
     sp = plan.start_pose
+    axis = plan.space is CorrectionSpace.AXIS
     lines = [
-        "# feedopt RSI corrections: the RKorr answer of every controller cycle.",
+        "# feedopt RSI corrections: the " + ("AK (axis)" if axis else "RKorr")
+        + " answer of every controller cycle.",
         f"# mode: {mode.value} (RSI_ON({mode.krl}, ...)): " + (
             "each row is the total correction from the pose at RSI_ON"
             if mode is CorrectionMode.ABSOLUTE else
             "each row is this cycle's increment, added up by the controller"),
-        "# correction frame: #BASE; rkorr_x/y/z_mm: TCP position difference in the robot base "
-        "frame [mm]; rkorr_a/b/c_deg: difference of the KUKA A, B, C angles [deg]",
+        ("# ak_a1..a6_deg: difference of the controller's axis values A1..A6 from those at "
+         "RSI_ON [deg] (an AXISCORR object)" if axis else
+         "# correction frame: #BASE; rkorr_x/y/z_mm: TCP position difference in the robot base "
+         "frame [mm]; rkorr_a/b/c_deg: difference of the KUKA A, B, C angles [deg]"),
         "# pose at RSI_ON (row 0 of the trajectory; the host program moves there first): "
         + ", ".join(f"{n} {v!r}" for n, v in zip("XYZABC", sp.tolist(), strict=True)),
         "# joints at RSI_ON [deg]: " + ", ".join(
@@ -204,11 +249,12 @@ def write_corrections_csv(path: str | Path, plan: CorrectionPlan, mode: Correcti
     for c in comments:
         text = str(c).encode("ascii", "backslashreplace").decode("ascii")
         lines.extend(f"# {part}" for part in text.splitlines() or [""])
-    lines.append(",".join(COLUMNS))
+    columns = AXIS_COLUMNS if axis else COLUMNS
+    lines.append(",".join(columns))
     answers = plan.answers(mode)
     path = Path(path)
-    refuse_non_finite(plan.t_s[:, None], COLUMNS[:1], "RSI corrections", path)
-    refuse_non_finite(answers, COLUMNS[1:], "RSI corrections", path)
+    refuse_non_finite(plan.t_s[:, None], columns[:1], "RSI corrections", path)
+    refuse_non_finite(answers, columns[1:], "RSI corrections", path)
     with path.open("w", encoding="ascii", newline="\n") as f:
         f.write("\n".join(lines) + "\n")
         for start in range(0, len(plan), floattext.ROWS_PER_BLOCK):

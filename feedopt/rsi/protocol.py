@@ -29,10 +29,12 @@ Followed, and tested against the same shapes:
 
 from __future__ import annotations
 
+import enum
 import math
 import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -49,6 +51,81 @@ MAX_PACKET_BYTES = 4096
 #: Decimals of the numbers in an answer (1 nm, 1e-6 deg).
 DECIMALS = 6
 _SEN_TYPE_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]{0,63}$")
+
+
+class CorrectionSpace(enum.Enum):
+    """What the answers correct: the TCP pose (``RKorr`` X..C, the context's POSCORR object)
+    or the axes (``AK`` / ``AKorr`` A1..A6, its AXISCORR object: ROS-Industrial's
+    kuka_rsi_hw_interface, kroshu's and FZI's drivers)."""
+
+    CARTESIAN = "cartesian"
+    AXIS = "axis"
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The correction element's attributes."""
+        return CARTESIAN if self is CorrectionSpace.CARTESIAN else AXES
+
+
+@dataclass(frozen=True)
+class AnswerFormat:
+    """The ``<Sen>`` document a controller's Ethernet configuration expects: ``Type``
+    (its SENTYPE), the correction element (``RKorr``, ``AK``, ``AKorr``...) with its six
+    attributes, and the Stop element (None: not configured, not sent)."""
+
+    sen_type: str = "ImFree"
+    element: str = "RKorr"
+    names: tuple[str, ...] = CARTESIAN
+    stop: str | None = "Stop"
+
+    @property
+    def space(self) -> CorrectionSpace:
+        return CorrectionSpace.AXIS if self.names == AXES else CorrectionSpace.CARTESIAN
+
+    @classmethod
+    def default(cls, space: CorrectionSpace, sen_type: str = "ImFree") -> AnswerFormat:
+        """feedopt's own configuration (:func:`feedopt.export.rsi_program.
+        ethernet_config_xml`): ``RKorr`` or ``AK`` (ROS-Industrial's name), and ``Stop``."""
+        element = "RKorr" if space is CorrectionSpace.CARTESIAN else "AK"
+        return cls(sen_type, element, space.names, "Stop")
+
+
+def read_ethernet_config(path: str | Path) -> AnswerFormat:
+    """The :class:`AnswerFormat` of a KUKA RSI Ethernet configuration (``<ROOT><CONFIG>
+    <SENTYPE>``, ``<RECEIVE><ELEMENTS><ELEMENT TAG="AK.A1" .../>``): the six ``NAME.X`` tags
+    of one correction element, and a ``Stop`` tag if there is one. InputError naming the
+    file and what it lacks."""
+    from feedopt.textio import read_user_bytes
+
+    path = Path(path)
+    data = read_user_bytes(path, "Ethernet configuration")
+    if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
+        raise InputError(f"{path}: document type declarations are not an RSI configuration")
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise InputError(f"{path}: not XML ({exc}); give the Ethernet configuration of the "
+                         "context's ETHERNET object (e.g. feedopt_rsi_ethernet.xml)") from None
+    sen = (root.findtext("CONFIG/SENTYPE") or "").strip()
+    if not sen:
+        raise InputError(f"{path}: no <CONFIG><SENTYPE>; the answers' Type must equal it")
+    tags = [(el.get("TAG") or "").strip() for el in root.findall("RECEIVE/ELEMENTS/ELEMENT")]
+    groups: dict[str, list[str]] = {}
+    for tag in tags:
+        element, dot, attribute = tag.partition(".")
+        if dot:
+            groups.setdefault(element, []).append(attribute)
+    found = [(e, tuple(a)) for e, a in groups.items() if set(a) in (set(CARTESIAN), set(AXES))]
+    if len(found) != 1:
+        have = ", ".join(tags) or "none"
+        raise InputError(
+            f"{path}: its <RECEIVE> elements must hold one correction: six tags NAME.X .. "
+            f"NAME.C (Cartesian, e.g. RKorr.X) or NAME.A1 .. NAME.A6 (axes, e.g. AK.A1); it "
+            f"has {have}")
+    element, names = found[0]
+    names = CARTESIAN if set(names) == set(CARTESIAN) else AXES
+    stop = next((t for t in tags if t.lower() == "stop"), None)
+    return AnswerFormat(check_sen_type(sen), element, names, stop)
 
 
 class PacketError(ValueError):
@@ -74,13 +151,15 @@ class ControllerPacket:
 
 @dataclass(frozen=True)
 class SensorAnswer:
-    """One ``<Sen>`` document: ``rkorr`` (6,) X, Y, Z [mm], A, B, C [deg]; ``stop`` True asks
-    the context's STOP object to end ``RSI_MOVECORR()`` (None: no ``Stop`` element)."""
+    """One ``<Sen>`` document: ``rkorr`` (6,) X, Y, Z [mm], A, B, C [deg] (or, with
+    ``element`` an axis correction, A1..A6 [deg]); ``stop`` True asks the context's STOP
+    object to end ``RSI_MOVECORR()`` (None: no ``Stop`` element)."""
 
     ipoc: int
     rkorr: np.ndarray
     stop: bool | None = None
     sen_type: str = DEFAULT_SEN_TYPE
+    element: str = "RKorr"
 
 
 def check_sen_type(sen_type: str) -> str:
@@ -159,9 +238,12 @@ def parse_sensor_answer(data: bytes, finite: bool = True) -> SensorAnswer:
     with ``finite`` also when an RKorr value is not finite: the simulated controller reads
     them as a KRC would, as numbers, and refuses them itself)."""
     root = _parse(data, "Sen")
-    rkorr = _vector(root, "RKorr", CARTESIAN, finite)
+    element, rkorr = "RKorr", _vector(root, "RKorr", CARTESIAN, finite)
+    for axis_element in ("AK", "AKorr"):
+        if rkorr is None:
+            element, rkorr = axis_element, _vector(root, axis_element, AXES, finite)
     if rkorr is None:
-        raise PacketError("no <RKorr> correction")
+        raise PacketError("no <RKorr> (or <AK> / <AKorr>) correction")
     stop = None
     el = root.find("Stop")
     if el is not None:
@@ -170,7 +252,7 @@ def parse_sensor_answer(data: bytes, finite: bool = True) -> SensorAnswer:
             raise PacketError(f"<Stop> is {text!r}, expected 0 or 1")
         stop = text == "1"
     return SensorAnswer(ipoc=_ipoc(root), rkorr=rkorr, stop=stop,
-                        sen_type=root.get("Type", ""))
+                        sen_type=root.get("Type", ""), element=element)
 
 
 def _attributes(names: tuple[str, ...], values) -> str:
@@ -178,12 +260,17 @@ def _attributes(names: tuple[str, ...], values) -> str:
 
 
 def build_sensor_answer(ipoc: int, rkorr, stop: bool | None = None,
-                        sen_type: str = DEFAULT_SEN_TYPE) -> bytes:
-    """The ``<Sen>`` answer to the packet with timestamp ``ipoc``: ``rkorr`` (6,) mm / deg,
-    an optional ``<Stop>`` and the echoed ``<IPOC>`` (``rsi_command.h``, ``server.py``)."""
-    stop_el = "" if stop is None else f"<Stop>{int(bool(stop))}</Stop>"
-    return (f'<Sen Type="{sen_type}"><EStr>feedopt</EStr>'
-            f"<RKorr {_attributes(CARTESIAN, rkorr)} />{stop_el}"
+                        sen_type: str = DEFAULT_SEN_TYPE,
+                        fmt: AnswerFormat | None = None) -> bytes:
+    """The ``<Sen>`` answer to the packet with timestamp ``ipoc``: the correction ``rkorr``
+    (6,) mm / deg in ``fmt``'s element (default ``RKorr`` X..C; ``AK`` A1..A6 [deg] in axis
+    mode, ``rsi_command.h``), an optional Stop element (sent only where ``fmt`` has one) and
+    the echoed ``<IPOC>`` (``rsi_command.h``, ``server.py``)."""
+    fmt = AnswerFormat(sen_type=sen_type) if fmt is None else fmt
+    stop_el = ("" if stop is None or fmt.stop is None
+               else f"<{fmt.stop}>{int(bool(stop))}</{fmt.stop}>")
+    return (f'<Sen Type="{fmt.sen_type}"><EStr>feedopt</EStr>'
+            f"<{fmt.element} {_attributes(fmt.names, rkorr)} />{stop_el}"
             f"<IPOC>{int(ipoc)}</IPOC></Sen>").encode("ascii")
 
 

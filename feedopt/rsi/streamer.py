@@ -73,14 +73,15 @@ from feedopt.rsi.corrections import (
     CorrectionMode,
     CorrectionPlan,
     limit_step,
-    step_sizes,
     wrap_deg,
 )
 from feedopt.rsi.pid import PidCoefficients, PidGains, PidState, pid_coefficients, pid_step
 from feedopt.rsi.protocol import (
     DEFAULT_SEN_TYPE,
     MAX_PACKET_BYTES,
+    AnswerFormat,
     ControllerPacket,
+    CorrectionSpace,
     PacketError,
     build_sensor_answer,
     parse_controller_packet,
@@ -150,6 +151,15 @@ class StreamSettings:
     stop_jerk_mm_s3: float = 5000.0
     late_after_s: float | None = None  # an answer later than this is late (None: one cycle)
     controller: tuple[str, int | None] | None = None
+    answer_format: AnswerFormat | None = None  # None: feedopt's own for the plan's space
+    ipoc_step: int | None = None  # IPOC per packet expected (None: 1 or the cycle in ms)
+    start_check: bool = True  # refuse to start unless RIst (AIPos) shows the start pose
+
+    def format_for(self, space: CorrectionSpace) -> AnswerFormat:
+        """The answers' document for a plan correcting ``space``."""
+        if self.answer_format is not None:
+            return self.answer_format
+        return AnswerFormat.default(space, self.sen_type)
 
 
 @dataclass(frozen=True)
@@ -223,8 +233,19 @@ class CorrectionStream:
         self._held_row = 0.0  # the row of the correction the controller holds
         self._last_delay: int | None = None
         self._desired_prev: np.ndarray | None = None
-        trans, _ = step_sizes(plan.absolute)
-        self._speed_mm_s = trans / plan.cycle_s  # (n - 1,) per row
+        self._speed_mm_s = plan.tcp_steps() / plan.cycle_s  # (n - 1,) per row
+        self.format = settings.format_for(plan.space)
+        if self.format.space is not plan.space:
+            raise InputError(
+                f"the Ethernet configuration answers with {self.format.element} "
+                f"({', '.join(self.format.names)}): {self.format.space.value} corrections, "
+                f"but the stream sends {plan.space.value} corrections (--correction "
+                f"{self.format.space.value} for it)")
+        if settings.pid is not None and plan.space is CorrectionSpace.AXIS:
+            raise InputError("--pid corrects the measured TCP pose (RIst or a tracker): it "
+                             "runs with Cartesian corrections only (drop --pid or use "
+                             "--correction cartesian)")
+        self.ipoc_step: int | None = None  # found in the handshake
         self._pid: PidCoefficients | None = (
             None if settings.pid is None else pid_coefficients(settings.pid, plan.cycle_s))
         self._pid_state = PidState.zero()
@@ -299,35 +320,86 @@ class CorrectionStream:
             self._handshake_ipocs.clear()
 
     # -- handshake -----------------------------------------------------------------------
-    def _check_handshake(self, packet: ControllerPacket, measured: np.ndarray | None) -> None:
-        ipocs = self._handshake_ipocs
-        steps = np.diff(ipocs)
-        if steps.size and int(steps.min()) != round(self.cycle_ms):
-            step = int(steps.min())
+    def _check_ipoc_step(self) -> None:
+        """The IPOC step per packet: the controller's cycle in ms (KRC4, RSI 3.x) or 1 (RSI
+        2.x on a KRC2, and the ROS-Industrial and FZI simulators), or ``ipoc_step`` as
+        stated; another step is another cycle than the trajectory's: refused."""
+        steps = np.diff(self._handshake_ipocs)
+        if not steps.size:
+            return
+        step = int(steps.min())
+        want = self.settings.ipoc_step
+        allowed = (want,) if want is not None else (1, round(self.cycle_ms))
+        if step not in allowed:
+            if want is not None:
+                raise InputError(f"the controller's IPOC advances by {step} per packet, not "
+                                 f"by {want} (--ipoc-step): give --ipoc-step {step} if its "
+                                 "cycle is the trajectory's, or leave it out (1 or the cycle "
+                                 "in ms are accepted)")
             raise InputError(
                 f"the controller's IPOC advances by {step} per packet, so it runs a {step} ms "
                 f"RSI cycle, but the stream's cycle is {self.cycle_ms:g} ms (the trajectory's "
                 f"rows, --cycle-ms): plan for {step} ms (export.rsi_cycle_ms) or start RSI "
-                "with the cycle of the trajectory (RSI_ON(..., #IPO_FAST) = 4 ms, #IPO = 12 ms)")
+                "with the cycle of the trajectory (RSI_ON(..., #IPO_FAST) = 4 ms, #IPO = 12 ms);"
+                " a controller whose IPOC counts packets: --ipoc-step 1")
+        self.ipoc_step = step
+
+    def _check_start(self, packet: ControllerPacket) -> None:
+        """The robot at the plan's start: RIst against its pose (Cartesian), AIPos against
+        its axis values (axis mode); refused without them unless ``start_check`` is off."""
         s = self.settings
-        if packet.rist is not None:
-            d = packet.rist - self.plan.start_pose
-            dist = float(np.linalg.norm(d[:3]))
-            ang = float(np.max(np.abs(wrap_deg(d[3:]))))
-            if dist > s.start_tolerance_mm or ang > s.start_tolerance_deg:
-                pose = ", ".join(f"{v:.3f}" for v in packet.rist.tolist())
-                start = ", ".join(f"{v:.3f}" for v in self.plan.start_pose.tolist())
+        axis = self.plan.space is CorrectionSpace.AXIS
+        actual = packet.aipos if axis else packet.rist
+        if actual is None:
+            if not s.start_check:
+                return
+            what = "AIPos (DEF_AIPos)" if axis else "RIst (DEF_RIst)"
+            raise InputError(
+                f"the controller's packets carry no {what}, so the stream cannot check that "
+                "the robot is at the trajectory's start: add it to the <SEND> elements of the "
+                "Ethernet configuration, or start without the check (--no-start-check) if "
+                "you have made sure yourself")
+        if axis:
+            d = actual - self.plan.start_q_deg
+            worst = int(np.argmax(np.abs(d)))
+            if abs(d[worst]) > s.start_tolerance_deg:
+                axes = ", ".join(f"{v:.3f}" for v in actual.tolist())
+                start = ", ".join(f"{v:.3f}" for v in self.plan.start_q_deg.tolist())
                 raise InputError(
-                    f"the robot is at X,Y,Z,A,B,C = {pose} (RIst) but {self.plan.source} starts "
-                    f"at {start}: {dist:.3f} mm / {ang:.3f} deg away (tolerance "
-                    f"{s.start_tolerance_mm:g} mm / {s.start_tolerance_deg:g} deg): move it to "
-                    "the start pose before RSI_ON (the exported host program's LIN does)")
+                    f"the robot's axes are at A1..A6 = {axes} (AIPos) but {self.plan.source} "
+                    f"starts at {start}: A{worst + 1} is {d[worst]:.3f} deg away (tolerance "
+                    f"{s.start_tolerance_deg:g} deg): move it to the start before RSI_ON (the "
+                    "exported host program's moves do)")
+            return
+        self._check_start_pose(actual)
+
+    def _check_start_pose(self, rist: np.ndarray) -> None:
+        """RIst within the start tolerance of the plan's start pose."""
+        s = self.settings
+        d = rist - self.plan.start_pose
+        dist = float(np.linalg.norm(d[:3]))
+        ang = float(np.max(np.abs(wrap_deg(d[3:]))))
+        if dist > s.start_tolerance_mm or ang > s.start_tolerance_deg:
+            pose = ", ".join(f"{v:.3f}" for v in rist.tolist())
+            start = ", ".join(f"{v:.3f}" for v in self.plan.start_pose.tolist())
+            raise InputError(
+                f"the robot is at X,Y,Z,A,B,C = {pose} (RIst) but {self.plan.source} starts "
+                f"at {start}: {dist:.3f} mm / {ang:.3f} deg away (tolerance "
+                f"{s.start_tolerance_mm:g} mm / {s.start_tolerance_deg:g} deg): move it to "
+                "the start pose before RSI_ON (the exported host program's LIN does)")
+
+    def _check_handshake(self, packet: ControllerPacket, measured: np.ndarray | None) -> None:
+        """The IPOC step, the start pose and the PID's measurement, after the handshake's
+        packets (InputError: nothing has moved yet)."""
+        self._check_ipoc_step()
+        self._check_start(packet)
+        s = self.settings
         if self._pid is not None and measured is None:
             where = ("RIst in the controller's packets (DEF_RIst in the Ethernet configuration)"
                      if s.measurement is Measurement.RIST else
                      "a tracker datagram on --tracker-listen")
             raise InputError(f"--pid {s.measurement.value}: no measured pose during the first "
-                             f"{len(ipocs)} cycles; it needs {where}")
+                             f"{len(self._handshake_ipocs)} cycles; it needs {where}")
 
     # -- one cycle -----------------------------------------------------------------------
     def _nominal(self, row: float) -> np.ndarray:
@@ -414,7 +486,8 @@ class CorrectionStream:
         pid_u = self._pid_state.u if self._pid is not None else None
         desired = nominal + pid_u if pid_u is not None else nominal.copy()
         held = self._held
-        self._total = limit_step(held, desired, s.max_step_mm, s.max_step_deg)
+        self._total = limit_step(held, desired, s.max_step_mm, s.max_step_deg,
+                                 self.plan.space)
         self._desired_prev = self.plan.start_pose + nominal
         sent = self._total if s.mode is CorrectionMode.ABSOLUTE else self._total - held
         stop = self.phase is Phase.HOLD and bool(np.allclose(self._total, desired, rtol=0,
@@ -759,7 +832,8 @@ class _Session:
             return 1 if quiet_s > RESTART_PAUSE_S else 0
         unanswered = 0
         if self.last_ipoc is not None:
-            unanswered = max(int((packet.ipoc - self.last_ipoc) // self.cycle_ms) - 1, 0)
+            step = self.logic.ipoc_step or self.cycle_ms  # known after the handshake
+            unanswered = max(int((packet.ipoc - self.last_ipoc) // step) - 1, 0)
             if self.logic.phase is not Phase.HANDSHAKE:
                 gap = max(unanswered - self.skipped, 0)
                 self.n.missing += gap
@@ -800,12 +874,12 @@ class _Session:
             ans = self.logic.answer(packet, measured, unanswered)
         except InputError:
             # nothing has moved yet: hold and ask the controller to stop, then refuse
-            self.sock.sendto(build_sensor_answer(packet.ipoc, np.zeros(6), True, s.sen_type),
-                             self.controller)
+            self.sock.sendto(build_sensor_answer(packet.ipoc, np.zeros(6), True,
+                                                 fmt=self.logic.format), self.controller)
             raise
         self.skipped = 0
-        self.sock.sendto(build_sensor_answer(packet.ipoc, ans.sent, ans.stop, s.sen_type),
-                         self.controller)
+        self.sock.sendto(build_sensor_answer(packet.ipoc, ans.sent, ans.stop,
+                                             fmt=self.logic.format), self.controller)
         t_send = time.perf_counter()
         self._account(packet, ans, t_recv, t_send)
         if ans.stop and self.stop_sent_at is None:
@@ -828,8 +902,11 @@ class _Session:
         if response > self.late_after and ans.phase is not Phase.HANDSHAKE:
             n.late += 1
         step = ans.total - ans.held
-        n.max_step = np.maximum(n.max_step, [np.linalg.norm(step[:3]),
-                                             np.max(np.abs(step[3:]))])
+        if self.plan.space is CorrectionSpace.AXIS:  # every axis in deg
+            n.max_step = np.maximum(n.max_step, [0.0, np.max(np.abs(step))])
+        else:
+            n.max_step = np.maximum(n.max_step, [np.linalg.norm(step[:3]),
+                                                 np.max(np.abs(step[3:]))])
         if ans.pid is not None:
             n.max_pid_mm = max(n.max_pid_mm, float(np.linalg.norm(ans.pid[:3])))
         if self.log is not None:
@@ -885,6 +962,11 @@ class _Session:
 
     def _report(self, signal_name: str | None) -> StreamReport:
         logic, n = self.logic, self.n
+        if logic.ipoc_step is not None:
+            self.notes.insert(0, f"the controller's IPOC advanced by {logic.ipoc_step} per "
+                              f"{self.cycle_ms} ms packet"
+                              + (" (it counts packets: RSI 2.x, or a simulator)"
+                                 if logic.ipoc_step == 1 and self.cycle_ms != 1 else ""))
         status = logic.stop_status or StreamStatus.CONTROLLER_SILENT
         if signal_name is not None and status is not StreamStatus.COMPLETED:
             status = StreamStatus.INTERRUPTED

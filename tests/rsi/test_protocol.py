@@ -101,3 +101,15 @@ def test_sen_type_must_be_a_plain_name() -> None:
     assert check_sen_type("ImFree") == "ImFree"
     with pytest.raises(InputError, match="SENTYPE"):
         check_sen_type('a" b')
+
+
+@pytest.mark.parametrize("space", ["cartesian", "axis"])
+def test_the_exported_ethernet_configurations_read_back(tmp_path, space):
+    from feedopt.export.rsi_program import ethernet_config_xml
+    from feedopt.rsi.protocol import CorrectionSpace, read_ethernet_config
+
+    p = tmp_path / "eth.xml"
+    p.write_text(ethernet_config_xml(space=CorrectionSpace(space), sen_type="FeedOpt"))
+    fmt = read_ethernet_config(p)
+    assert fmt.space is CorrectionSpace(space) and fmt.sen_type == "FeedOpt"
+    assert fmt.element == ("RKorr" if space == "cartesian" else "AK") and fmt.stop == "Stop"

@@ -298,3 +298,23 @@ def test_bad_controller_option(corner, value, fragment, capsys) -> None:
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("feedopt stream: error: --controller")
     assert fragment in err[0]
+
+
+ROS_CONFIG = Path(__file__).resolve().parents[1] / "data" / "rsi" / "ros_industrial" / \
+    "ros_rsi_ethernet.xml"
+
+
+@pytest.mark.parametrize("extra, fragment", [
+    (["--config", str(ROS_CONFIG), "--correction", "cartesian"],
+     "answers with AK (A1, A2, A3, A4, A5, A6): axis corrections"),
+    (["--config", str(ROS_CONFIG), "--sen-type", "Other"], "SENTYPE is ImFree"),
+    (["--ipoc-step", "0"], "--ipoc-step must be >= 1"),
+    (["--config", "/no/such/eth.xml"], "/no/such/eth.xml"),
+    (["--correction", "axis", "--pid"], "--pid corrects the measured TCP pose"),
+])
+def test_bad_correction_options(corner, extra, fragment, capsys) -> None:
+    from feedopt.cli import main
+
+    assert main(["stream", str(corner), "--listen", "127.0.0.1:0", "--wait-s", "0.5",
+                 *extra]) == 2
+    assert fragment in capsys.readouterr().err

@@ -6,8 +6,8 @@ import pytest
 
 from feedopt.errors import InputError
 from feedopt.export.rsi import RsiTable
-from feedopt.rsi.corrections import CorrectionMode, plan_from_table
-from feedopt.rsi.protocol import ControllerPacket
+from feedopt.rsi.corrections import CorrectionMode, limit_step, plan_from_table
+from feedopt.rsi.protocol import ControllerPacket, CorrectionSpace
 from feedopt.rsi.streamer import CorrectionStream, Phase, StreamSettings, StreamStatus
 
 CYCLE = 0.004
@@ -76,7 +76,8 @@ def test_a_gap_past_the_late_limit_holds_where_the_robot_stands() -> None:
 
 
 def test_without_delay_the_last_answer_is_assumed_held() -> None:
-    logic = CorrectionStream(_line_plan(100, 5.0), StreamSettings())
+    # packets without RIst: the start check is off
+    logic = CorrectionStream(_line_plan(100, 5.0), StreamSettings(start_check=False))
     answers = [logic.answer(ControllerPacket(ipoc=4 * k), None) for k in range(30)]
     for a, b in zip(answers[:-1], answers[1:], strict=True):
         np.testing.assert_array_equal(b.held, a.total)
@@ -121,3 +122,75 @@ def test_handshake_refuses_a_robot_away_from_the_start() -> None:
     with pytest.raises(InputError, match=r"0\.600 mm / 0\.000 deg away"):
         for k in range(5):
             logic.answer(ControllerPacket(ipoc=4 * k, rist=away), None)
+
+
+def _axis_line_plan(rows: int, rate_deg_s: float):
+    """A plan whose axes move A1 at ``rate_deg_s`` (and A4 backwards at half), from Q0."""
+    m = np.zeros((rows, 18))
+    m[:, 0] = np.arange(rows) * CYCLE
+    m[:, 1:7] = START
+    m[:, 1] += 5.0 * m[:, 0]  # the TCP's 5 mm/s: what the ramps are sized by
+    m[:, 7:13] = Q0
+    m[:, 7] += rate_deg_s * m[:, 0]
+    m[:, 10] -= 0.5 * rate_deg_s * m[:, 0]
+    return plan_from_table(RsiTable.from_matrix(m), CYCLE, "axes.csv", CorrectionSpace.AXIS)
+
+
+Q0 = np.array([0.0, -90.0, 90.0, 0.0, 90.0, 0.0])
+
+
+def test_axis_mode_answers_the_axis_values_less_the_start_and_checks_aipos() -> None:
+    plan = _axis_line_plan(200, 2.0)
+    logic = CorrectionStream(plan, StreamSettings(max_step_deg=0.1))
+    answers = [logic.answer(ControllerPacket(ipoc=k, aipos=Q0.copy()), None)
+               for k in range(60)]
+    assert logic.ipoc_step == 1  # a controller (or simulator) that counts packets
+    run = [a for a in answers if a.phase is Phase.RUN]
+    for a in run:  # row r: A1 = 2 deg/s * r * 4 ms, A4 = -half of it, the rest still
+        r = a.row
+        np.testing.assert_allclose(a.total, [2.0 * CYCLE * r, 0, 0, -1.0 * CYCLE * r, 0, 0],
+                                   rtol=0, atol=1e-12)
+    away = CorrectionStream(plan, StreamSettings())
+    with pytest.raises(InputError, match=r"A2 is 1\.000 deg away"):
+        for k in range(5):
+            away.answer(ControllerPacket(ipoc=k, aipos=Q0 + [0, 1, 0, 0, 0, 0]), None)
+    blind = CorrectionStream(plan, StreamSettings())
+    with pytest.raises(InputError, match=r"no AIPos \(DEF_AIPos\).*--no-start-check"):
+        for k in range(5):
+            blind.answer(ControllerPacket(ipoc=k, rist=START.copy()), None)
+
+
+def test_the_axis_gate_keeps_the_direction_in_joint_space() -> None:
+    held, want = np.zeros(6), np.array([0.4, 0.0, -0.2, 0.0, 0.0, 0.1])
+    got = limit_step(held, want, 0.1, 0.1, CorrectionSpace.AXIS)
+    np.testing.assert_allclose(got, want / 4.0)  # the largest axis step is 0.1 deg
+
+
+def test_start_check_needs_rist_or_says_how_to_skip_it() -> None:
+    logic = CorrectionStream(_line_plan(10, 1.0), StreamSettings())
+    with pytest.raises(InputError, match=r"no RIst \(DEF_RIst\)"):
+        for k in range(5):
+            logic.answer(ControllerPacket(ipoc=4 * k), None)
+
+
+@pytest.mark.parametrize(("step", "stated", "ok"), [(1, None, True), (4, None, True),
+                                                     (12, None, False), (1, 4, False),
+                                                     (4, 4, True)])
+def test_the_ipoc_step_is_1_or_the_cycle_or_as_stated(step, stated, ok) -> None:
+    logic = CorrectionStream(_line_plan(10, 1.0), StreamSettings(ipoc_step=stated))
+    packets = [ControllerPacket(ipoc=100 + step * k, rist=START.copy()) for k in range(5)]
+    if ok:
+        for p in packets:
+            logic.answer(p, None)
+        assert logic.ipoc_step == step and logic.phase is Phase.RUN
+    else:
+        with pytest.raises(InputError, match=f"advances by {step} per packet"):
+            for p in packets:
+                logic.answer(p, None)
+
+
+def test_pid_is_refused_in_axis_mode() -> None:
+    from feedopt.rsi.pid import PidGains
+
+    with pytest.raises(InputError, match="--pid corrects the measured TCP pose"):
+        CorrectionStream(_axis_line_plan(10, 1.0), StreamSettings(pid=PidGains.thesis()))
