@@ -209,6 +209,10 @@ def run(args: argparse.Namespace) -> int:
               f"{len(plan)} rows of {args.cycle_ms:g} ms ({plan.t_s[-1]:.3f} s), "
               f"{settings.mode.value} mode, {plan.space.value} corrections"
               + (", PID on" if settings.pid else ""), flush=True)
+        if not settings.start_check:
+            print("feedopt stream: warning: --no-start-check: if the packets carry no RIst "
+                  "(AIPos), the robot's start pose is not checked: the first correction is "
+                  "applied wherever the robot stands", file=sys.stderr, flush=True)
         if settings.mode.value == "relative":
             print("feedopt stream: relative mode: the Ethernet configuration's RKorr elements "
                   "need HOLDON=\"0\"", flush=True)
