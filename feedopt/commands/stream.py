@@ -45,7 +45,13 @@ def add_parser(subparsers) -> None:
                    help="RSI_ON mode: total correction from the pose at RSI_ON (absolute, "
                    "default; HOLDON=1) or per-cycle increments (relative; HOLDON=0)")
     p.add_argument("--late-limit", type=int, default=20, metavar="N",
-                   help="stop (ramp to hold) once N packets were late or missing (default 20)")
+                   help="stop (ramp to hold) after N late or missing answers in a row "
+                   "(default 20), counted by the controller's Delay when its packets carry "
+                   "it (what it acts on), else by this PC's clock and the IPOC gaps")
+    p.add_argument("--late-total", type=int, default=None, metavar="M",
+                   help="also stop after M late or missing answers in all (default: no total "
+                   "limit; KUKA's ETHERNET object stops RSI at its own Timeout, 100 in its "
+                   "examples)")
     p.add_argument("--max-step-mm", type=float, default=0.1, metavar="MM",
                    help="largest change of the translation correction between two answers "
                    "(default 0.1 mm = 25 mm/s at 4 ms); a trajectory needing more is refused")
@@ -106,6 +112,8 @@ def _settings(args: argparse.Namespace, cycle_s: float):
 
     if args.late_limit < 1:
         raise InputError(f"--late-limit must be >= 1, got {args.late_limit}")
+    if args.late_total is not None and args.late_total < 1:
+        raise InputError(f"--late-total must be >= 1, got {args.late_total}")
     for option, value, example in (("--max-step-mm", args.max_step_mm, "0.1"),
                                    ("--max-step-deg", args.max_step_deg, "0.1"),
                                    ("--pid-limit-mm", args.pid_limit_mm, "2"),
@@ -119,7 +127,7 @@ def _settings(args: argparse.Namespace, cycle_s: float):
     return StreamSettings(
         controller=_controller(args.controller),
         listen=parse_address(args.listen, "--listen"), mode=CorrectionMode(args.mode),
-        late_limit=args.late_limit, max_step_mm=args.max_step_mm,
+        late_limit=args.late_limit, late_total=args.late_total, max_step_mm=args.max_step_mm,
         max_step_deg=args.max_step_deg, wait_s=args.wait_s,
         silence_s=max(0.25, 50 * cycle_s), sen_type=check_sen_type(args.sen_type),
         pid=PidGains.thesis() if args.pid else None,
@@ -282,7 +290,9 @@ def _print_report(report, args) -> None:
     if r.status is StreamStatus.COMPLETED:
         return
     why = {
-        StreamStatus.LATE_LIMIT: f"stopped at the late-packet limit ({args.late_limit})",
+        StreamStatus.LATE_LIMIT: (f"stopped at the late-packet limit ({args.late_limit} in a "
+                                  "row" + (f", {args.late_total} in all" if args.late_total
+                                           else "") + ")"),
         StreamStatus.CONTROLLER_GAP: (
             f"the controller's IPOC jumped {r.largest_gap} cycles (a pause or lost packets; "
             f"--late-limit {args.late_limit})"),

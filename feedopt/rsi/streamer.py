@@ -49,8 +49,15 @@ packets the last answer is assumed accepted.
 Late and missing: a packet is *late* when a newer one was already waiting when it was read
 (the stream fell behind: it is skipped, its row never sent) or when its answer left more than
 one cycle after it arrived; *missing* when its IPOC never arrived (a gap in the IPOC sequence).
-The controller's own count (``<Delay D>``, DEF_Delay) is followed too; the limit trips on
-either count reaching ``late_limit``.
+The limit trips on ``late_limit`` late or missing answers in a row (or ``late_total`` in
+all), counted by the controller (its ``<Delay D>``, DEF_Delay, rising, plus the IPOC gaps)
+when its packets carry Delay: that is what the controller acts on, and a loaded PC's answers
+that still reach it within its cycle are not late to it. Without Delay, by this stream's
+count. A Delay that rises at every handshake packet (whose answers are immediate) is a Type
+or element mismatch, refused as such. The IPOC step per packet is the cycle in ms (KRC4) or
+1 (RSI 2.x, the ROS-Industrial and FZI simulators), reported; axis corrections (``AK`` /
+``AKorr``, :class:`feedopt.rsi.protocol.CorrectionSpace`) are answered like Cartesian ones,
+with the start checked on AIPos and the step gate per axis.
 """
 
 from __future__ import annotations
@@ -132,7 +139,8 @@ class StreamSettings:
 
     listen: tuple[str, int] = ("127.0.0.1", 49152)
     mode: CorrectionMode = CorrectionMode.ABSOLUTE
-    late_limit: int = 20
+    late_limit: int = 20  # late or missing answers in a row that stop the stream
+    late_total: int | None = None  # and in all (None: no total limit)
     max_step_mm: float = 0.1
     max_step_deg: float = 0.1
     wait_s: float = 30.0
@@ -225,6 +233,7 @@ class CorrectionStream:
         self.stop_kind: StopKind | None = None
         self.stop_row: float | None = None
         self._handshake_ipocs: list[int] = []
+        self._handshake_delays: list[int | None] = []
         self._started = False
         self._profile: _Profile | None = None  # of RESUME and RAMP
         self._total = np.zeros(6)  # the last answer sent
@@ -318,6 +327,7 @@ class CorrectionStream:
         self._last_delay = None
         if self.phase is Phase.HANDSHAKE:
             self._handshake_ipocs.clear()
+            self._handshake_delays.clear()
 
     # -- handshake -----------------------------------------------------------------------
     def _check_ipoc_step(self) -> None:
@@ -343,6 +353,22 @@ class CorrectionStream:
                 "with the cycle of the trajectory (RSI_ON(..., #IPO_FAST) = 4 ms, #IPO = 12 ms);"
                 " a controller whose IPOC counts packets: --ipoc-step 1")
         self.ipoc_step = step
+
+    def _check_answers_taken(self) -> None:
+        """The controller's Delay rising at every packet of the handshake means it took
+        none of the (immediate, zero) answers: the Type or the elements do not match its
+        configuration, not lateness."""
+        delays = self._handshake_delays
+        if len(delays) < 3 or any(d is None for d in delays):
+            return
+        if np.all(np.diff(np.asarray(delays)) >= 1):
+            fmt = self.format
+            raise InputError(
+                f"the controller counted every answer of the first {len(delays)} cycles as "
+                f"late (its Delay rose from {delays[0]} to {delays[-1]}) although each was sent "
+                f"at once: it probably rejects them. Its SENTYPE must be the answers' Type "
+                f"({fmt.sen_type}: --sen-type) and its RECEIVE elements these ({fmt.element}."
+                f"{'/'.join(fmt.names)}: --config its Ethernet XML)")
 
     def _check_start(self, packet: ControllerPacket) -> None:
         """The robot at the plan's start: RIst against its pose (Cartesian), AIPos against
@@ -392,6 +418,7 @@ class CorrectionStream:
         """The IPOC step, the start pose and the PID's measurement, after the handshake's
         packets (InputError: nothing has moved yet)."""
         self._check_ipoc_step()
+        self._check_answers_taken()
         self._check_start(packet)
         s = self.settings
         if self._pid is not None and measured is None:
@@ -454,6 +481,7 @@ class CorrectionStream:
 
     def _handshake(self, packet: ControllerPacket, measured: np.ndarray | None) -> CycleAnswer:
         self._handshake_ipocs.append(packet.ipoc)
+        self._handshake_delays.append(packet.delay)
         if len(self._handshake_ipocs) >= self.settings.handshake_cycles:
             self._check_handshake(packet, measured)
             self.phase = Phase.RUN
@@ -620,6 +648,10 @@ class _Tally:
     answered: int = 0
     controller_late: int = 0
     largest_gap: int = 0
+    run: int = 0  # late or missing answers in a row, by this stream's clock and IPOCs
+    controller_run: int = 0  # rises of the controller's Delay in a row
+    gap: int = 0  # packets of the last IPOC gap (missing: the controller held or paused)
+    largest_run: int = 0
     max_response_s: float = 0.0
     max_pid_mm: float = 0.0
     max_step: np.ndarray = field(default_factory=lambda: np.zeros(2))
@@ -726,6 +758,7 @@ class _Session:
         self.stop_acknowledged = False
         self.restart: tuple[int, int] | None = None
         self.notes: list[str] = []
+        self.controller_counts = False  # its packets carry Delay: its count decides
 
     # -- receiving -----------------------------------------------------------------------
     def _from_controller(self, addr: tuple) -> bool:
@@ -837,21 +870,46 @@ class _Session:
             if self.logic.phase is not Phase.HANDSHAKE:
                 gap = max(unanswered - self.skipped, 0)
                 self.n.missing += gap
+                self.n.gap = gap
                 self.n.largest_gap = max(self.n.largest_gap, gap)
         self.last_ipoc = packet.ipoc
         self.t_last = t_recv
         if packet.delay is not None:
             self.delay0 = packet.delay if self.delay0 is None else self.delay0
+            late_now = packet.delay - self.delay0 - self.n.controller_late
             self.n.controller_late = max(self.n.controller_late, packet.delay - self.delay0)
+            self.n.controller_run = self.n.controller_run + late_now if late_now > 0 else 0
+            self.controller_counts = True
+        if unanswered:
+            self._late_run(unanswered)
         return unanswered
+
+    def _late_run(self, late: int) -> None:
+        """``late`` more late or missing answers in a row (0: one on time ends the run)."""
+        n = self.n
+        n.run = n.run + late if late else 0
+        n.largest_run = max(n.largest_run, n.run, n.controller_run)
+
+    def _limit_reached(self) -> bool:
+        """The late-packet limit: ``late_limit`` in a row or ``late_total`` in all, by the
+        controller's own count (its Delay) when its packets carry one, else by this
+        stream's (its clock and the IPOC gaps). The controller's count decides because it
+        is what the controller acts on: a loaded PC's slow answers that still arrive within
+        the controller's cycle are not late to it."""
+        s, n = self.s, self.n
+        if self.controller_counts:  # and the IPOC gaps: the controller paused or held
+            run, total = max(n.controller_run, n.gap), n.controller_late + n.missing
+        else:
+            run, total = n.run, n.late + n.missing
+        return run >= s.late_limit or (s.late_total is not None and total >= s.late_total)
 
     def _check_limit(self, unanswered: int) -> None:
         """Stop on the late-packet limit (a gap of missing packets: the controller held its
         correction meanwhile, so the stop is a hold where it stands)."""
-        s, n, logic = self.s, self.n, self.logic
+        s, logic = self.s, self.logic
         if logic.phase not in (Phase.RUN, Phase.RESUME):
             return
-        if n.late + n.missing >= s.late_limit or n.controller_late >= s.late_limit:
+        if self._limit_reached():
             gap = unanswered > self.skipped and unanswered - self.skipped >= s.late_limit
             logic.request_stop(StreamStatus.CONTROLLER_GAP if gap else StreamStatus.LATE_LIMIT)
 
@@ -899,8 +957,10 @@ class _Session:
         n.answered += 1
         response = t_send - t_recv
         n.max_response_s = max(n.max_response_s, response)
-        if response > self.late_after and ans.phase is not Phase.HANDSHAKE:
-            n.late += 1
+        if ans.phase is not Phase.HANDSHAKE:
+            late = response > self.late_after
+            n.late += late
+            self._late_run(int(late))  # an answer on time ends a run
         step = ans.total - ans.held
         if self.plan.space is CorrectionSpace.AXIS:  # every axis in deg
             n.max_step = np.maximum(n.max_step, [0.0, np.max(np.abs(step))])
@@ -914,9 +974,7 @@ class _Session:
                      n.controller_late, response)
         if self.progress is not None and ans.phase is Phase.RUN:
             self.progress(int(ans.row), self.logic.last_row)
-        if self.logic.phase in (Phase.RUN, Phase.RESUME) and (
-                n.late + n.missing >= self.s.late_limit
-                or n.controller_late >= self.s.late_limit):
+        if self.logic.phase in (Phase.RUN, Phase.RESUME) and self._limit_reached():
             self.logic.request_stop(StreamStatus.LATE_LIMIT)
 
     # -- the loop ------------------------------------------------------------------------

@@ -96,3 +96,57 @@ def test_rsipi_echo_server_follows_the_stream(tmp_path, monkeypatch, space):
     else:
         got = [server.state["RIst"][k] for k in "XYZABC"]
     np.testing.assert_allclose(got, last, rtol=0, atol=1e-6)
+
+
+def test_answers_the_controller_rejects_are_named_as_a_type_mismatch(tmp_path, monkeypatch):
+    """RSIPI rejects an answer whose Type is not its SENTYPE and counts it in Delay, as a
+    KRC does: every handshake answer rejected is a configuration mismatch, not lateness."""
+    from feedopt.errors import InputError
+
+    monkeypatch.chdir(tmp_path)
+    echo = _echo_server_module()
+    with Streamer(StreamSettings(listen=("127.0.0.1", 0))) as probe:
+        port = probe.address[1]
+    config = tmp_path / "eth.xml"
+    config.write_text(ethernet_config_xml(ip="127.0.0.1", port=port))  # SENTYPE ImFree
+    settings = StreamSettings(listen=("127.0.0.1", port), sen_type="NotImFree", wait_s=20.0)
+    with Streamer(settings) as streamer:
+        try:
+            server = echo.EchoServer(str(config), delay_ms=4, mode="absolute",
+                                     timeout_packets=10_000)
+        except OSError as exc:
+            pytest.skip(f"RSIPI's echo server cannot bind its port 50000: {exc}")
+        server.start()
+        try:
+            with pytest.raises(InputError, match=r"probably rejects them.*SENTYPE.*NotImFree"):
+                streamer.run(_plan(CorrectionSpace.CARTESIAN))
+        finally:
+            server.stop()
+    assert server.faulty_packets >= 3
+
+
+def test_the_controller_s_count_decides_not_this_pc_s_clock(tmp_path, monkeypatch):
+    """Every answer later than 1 ns by this stream's clock (a loaded PC), none by the
+    controller's count (RSIPI's Delay stays 0): the stream completes; the report keeps both
+    counts. With a count of its own only it would have stopped at 5 in a row."""
+    monkeypatch.chdir(tmp_path)
+    echo = _echo_server_module()
+    with Streamer(StreamSettings(listen=("127.0.0.1", 0))) as probe:
+        port = probe.address[1]
+    config = tmp_path / "eth.xml"
+    config.write_text(ethernet_config_xml(ip="127.0.0.1", port=port))
+    settings = StreamSettings(listen=("127.0.0.1", port), wait_s=20.0, hold_s=0.2,
+                              late_limit=5, late_after_s=1e-9)
+    with Streamer(settings) as streamer:
+        try:
+            server = echo.EchoServer(str(config), delay_ms=4, mode="absolute",
+                                     timeout_packets=10_000)
+        except OSError as exc:
+            pytest.skip(f"RSIPI's echo server cannot bind its port 50000: {exc}")
+        server.start()
+        try:
+            report = streamer.run(_plan(CorrectionSpace.CARTESIAN, rows=101))
+        finally:
+            server.stop()
+    assert report.status is StreamStatus.COMPLETED, report
+    assert report.late >= 100 and report.controller_late == 0

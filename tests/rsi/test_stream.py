@@ -200,7 +200,7 @@ def test_a_stalled_streamer_trips_the_late_packet_limit(stretch, tmp_path) -> No
         timer.cancel()
         proc.kill()
     assert proc.returncode == 3, (out, err)
-    assert "stream late-packet limit" in out and "late-packet limit (10)" in err
+    assert "stream late-packet limit" in out and "late-packet limit (10 in a row)" in err
     assert "the robot stood still on the path: it was held there at row" in err
     assert sim.status is SimStatus.STOPPED and sim.late >= 10
     lg = _read_log(log)
