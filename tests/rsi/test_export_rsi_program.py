@@ -53,11 +53,18 @@ def test_host_program(default_run) -> None:
     # $TOOL is the TOOL_DATA the header states (the frames every export carries)
     tool_data = re.search(r"^; TOOL_DATA = (\{.*?\})", src, re.M).group(1)
     assert f"$TOOL = {tool_data}" in code
-    order = ["BAS (#INITMOV,0 )", "PTP {", "LIN {", 'RSI_CREATE("feedopt_rsi", CONTID, TRUE)',
-             "RSI_SETPUBLICPAR", "RSI_ON(#ABSOLUTE, #IPO_FAST)", "RSI_MOVECORR()", "RSI_OFF()",
-             "RSI_DELETE(CONTID)", "LIN_REL {"]
-    where = [next(i for i, c in enumerate(code) if needle in c) for needle in order]
-    assert where == sorted(where)
+    order = ["BAS (#INITMOV,0 )", "$LOAD = {M -1", "PTP {", "HALT", "LIN {",
+             'RSI_CREATE("feedopt_rsi", CONTID, TRUE)', "RSI_SETPUBLICPAR",
+             "RSI_ON(#ABSOLUTE, #IPO_FAST)", "RSI_MOVECORR()", "RSI_OFF()",
+             "RSI_DELETE(CONTID)", "LIN {", "WAIT SEC 0", "HALT"]
+    # the native KRL program's spindle hooks (its default: HALT for the operator)
+    from feedopt.export.krl import SpindleControl
+
+    hooks = SpindleControl().lines(True) + SpindleControl().lines(False)
+    assert hooks and all(ln in src.splitlines() for ln in hooks)
+    at = -1
+    for needle in order:  # each after the one before
+        at = next(i for i in range(at + 1, len(code)) if needle in code[i])
     for i, c in enumerate(code):  # every RSI call's result is checked
         if c.startswith("ret = "):
             assert code[i + 1:i + 4] == ["IF (ret <> RSIOK) THEN", "HALT", "ENDIF"]
@@ -72,7 +79,12 @@ def test_host_program(default_run) -> None:
     assert limits[("PosCorr_1", "MaxRotAngle")] >= np.abs(corr[:, 4:]).max()
 
 
-def test_approach_is_above_the_start_along_the_tool_axis(default_run) -> None:
+def test_entry_and_exit_are_the_native_program_s(default_run) -> None:
+    """PTP above the lead-in point, LIN down, LIN along the start tangent to the pose at
+    RSI_ON; after RSI_OFF the lead-out along the end tangent and the retract up the tool
+    axis: against FK of the PTP's axes and the trajectory's own rows."""
+    from feedopt.export.frames import LEAD_IN_MM, LEAD_OUT_MM
+
     src = (default_run / "jerk_rsi.src").read_text()
     ptp = re.search(r"^PTP \{(.*)\}$", src, re.M).group(1)
     q = np.deg2rad([float(v.split()[1]) for v in ptp.split(",")])
@@ -80,16 +92,25 @@ def test_approach_is_above_the_start_along_the_tool_axis(default_run) -> None:
     robot = load_robot(ROOT / "robots" / "kuka_kr500_3")
     start = forward_kinematics(robot, np.deg2rad(traj[0, 7:13]))
     above = forward_kinematics(robot, q)
+    lins = [[float(v.split()[1]) for v in m.split(",")]
+            for m in re.findall(r"^LIN \{(.*)\}$", src, re.M)]
+    assert len(lins) == 4  # down, lead-in, lead-out, retract
+    t0 = traj[5, 1:4] - traj[0, 1:4]
+    t0 /= np.linalg.norm(t0)
+    lead_in = traj[0, 1:4] - LEAD_IN_MM * t0
+    np.testing.assert_allclose(lins[0][:3], lead_in, atol=2e-3)
+    np.testing.assert_allclose(lins[1], traj[0, 1:7], atol=1e-4)  # the pose at RSI_ON
     # 4-decimal degrees in the program: ~1e-3 mm at the 2.8 m reach
-    want = start[:3, 3] + APPROACH_MM * 1e-3 * start[:3, 2]
-    assert np.linalg.norm(above[:3, 3] - want) < 5e-6
+    want = lead_in + APPROACH_MM * start[:3, 2]
+    assert np.linalg.norm(above[:3, 3] * 1e3 - want) < 3e-3
     np.testing.assert_allclose(above[:3, :3], start[:3, :3], atol=1e-5)
-    lin = re.search(r"^LIN \{(.*)\}$", src, re.M).group(1)
-    pose = [float(v.split()[1]) for v in lin.split(",")]
-    np.testing.assert_allclose(pose, traj[0, 1:7], atol=1e-4)
-    retract = re.search(r"^LIN_REL \{(.*)\} #BASE$", src, re.M).group(1)
-    assert [float(v.split()[1]) for v in retract.split(",")] == pytest.approx(
-        [0.0, 0.0, APPROACH_MM], abs=1e-4)  # tool vertical on this cut
+    end = forward_kinematics(robot, np.deg2rad(traj[-1, 7:13]))
+    t1 = traj[-1, 1:4] - traj[-6, 1:4]
+    t1 /= np.linalg.norm(t1)
+    lead_out = traj[-1, 1:4] + LEAD_OUT_MM * t1
+    np.testing.assert_allclose(lins[2][:3], lead_out, atol=2e-3)
+    np.testing.assert_allclose(lins[3][:3], lead_out + APPROACH_MM * end[:3, 2] * 1.0,
+                               atol=2e-3)
 
 
 def test_ethernet_configuration(default_run) -> None:
@@ -111,9 +132,10 @@ def test_twelve_ms_cycle_uses_ipo(default_table) -> None:
     from feedopt.export.rsi import RsiTable
 
     plan = plan_from_table(RsiTable.from_matrix(default_table.as_matrix()[:300:3]), 0.012)
-    text = host_program("jerk", plan, approach_q_deg=None, retract_mm=np.zeros(3))
+    text = host_program("jerk", plan, entry=None, retract_mm=np.array([0.0, 0.0, 50.0]))
     assert "RSI_ON(#ABSOLUTE, #IPO)" in text and "#IPO_FAST" not in text
     assert "PTP {A1 9.7276" in text  # no approach pose: the start joints
+    assert "LIN_REL {X 0, Y 0, Z 50} #BASE" in text
 
 
 def test_only_for_kuka_controllers() -> None:
