@@ -495,6 +495,19 @@ def parse_krl_dat(text: str) -> dict[str, dict]:
 
 
 def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+    """Key points for the native-controller program (:func:`key_arc_lengths`): their (n, 6)
+    poses (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg]."""
+    from feedopt.robot.kuka import abc_from_rotation
+    from feedopt.robot.model import forward_kinematics
+
+    s_arr, motions, vels = key_arc_lengths(job)
+    q = job.q_of_s(s_arr)
+    pose = forward_kinematics(job.robot, q)
+    points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
+    return points, motions, vels, job.robot.axis_convention.to_controller(q[0])
+
+
+def key_arc_lengths(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray]:
     """Key points for the native-controller program: segment ends (thesis section 3.7).
 
     Lines end in an ``SLIN``; a line is also cut at the chapter-4 key points (every
@@ -502,12 +515,11 @@ def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.nd
     :data:`FEED_TOLERANCE`, so each SLIN's ``$VEL.CP`` is the lowest feed the law aims for on
     it (:func:`feedopt.export.gcode_out.law_feed_targets`: the law's feed without its
     boundary ramps, capped by the feed bound for a law that keeps it). Blends get two ``SPL``
-    points (middle and end) at the lowest such feed through the blend. Returns the (n, 6) poses
-    (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg].
+    points (middle and end) at the lowest such feed through the blend. Returns their arc
+    lengths (n,) [m] (the first 0), the motion into each (``SLIN`` / ``SPL``; n - 1) and its
+    feed [m/s].
     """
     from feedopt.export.gcode_out import feed_pieces, law_feed_targets
-    from feedopt.robot.kuka import abc_from_rotation
-    from feedopt.robot.model import forward_kinematics
 
     problem = job.problem
     s = problem.s
@@ -537,11 +549,7 @@ def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.nd
             s_pts.append(b if hi == bounds[-1] else float(s[inside[hi]]))
             motions.append("SLIN")
             vels.append(float(g[lo:hi + 1].min()))
-    s_arr = np.asarray(s_pts)
-    q = job.q_of_s(s_arr)
-    pose = forward_kinematics(job.robot, q)
-    points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
-    return points, motions, np.asarray(vels), job.robot.axis_convention.to_controller(q[0])
+    return np.asarray(s_pts), motions, np.asarray(vels)
 
 
 def segment_count(path) -> int:
