@@ -194,8 +194,8 @@ def cell_frames(robot: RobotModel) -> CellFrames:
     tool_in_flange = np.linalg.inv(flange_rot) @ robot.tcp_offset
     rv = _rotation_vector(tool_in_flange[:3, :3])
     tcp_ur = tuple(float(v) for v in np.round(np.concatenate([tool_in_flange[:3, 3], rv]), 9))
-    name = {"kuka": "$FLANGE", "ur": "tool flange", "abb": "tool0"}.get(robot.controller,
-                                                                     "flange")
+    name = {"kuka": "$FLANGE", "ur": "tool flange", "abb": "tool0",
+            "fanuc": "faceplate"}.get(robot.controller, "flange")
     return CellFrames(
         controller=robot.controller, flange_name=name, flange_in_urdf=flange_rot,
         urdf_flange_out_axis=out_axis, tool=Frame6.from_transform(tool_in_flange),

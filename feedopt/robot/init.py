@@ -259,8 +259,8 @@ def still_to_fill(summary: UrdfSummary, controller: str) -> list[str]:
     if controller == "kuka":
         todo.insert(0, "controller.axes: KUKA's axis convention for this URDF (no KRL or RSI "
                     "program is written without it)")
-    if controller == "abb":
-        todo.insert(0, "controller.axes: ABB's axis convention for this URDF (no RAPID module "
-                    "is written without it; an arm with a parallel linkage, e.g. IRB 2400: "
-                    "coupled: [{axis: 3, joint: 2, factor: 1}])")
+    if controller in ("abb", "fanuc"):
+        todo.insert(0, f"controller.axes: {controller.upper()}'s axis convention for this URDF "
+                    "(no program is written without it; an arm with a parallel linkage, e.g. "
+                    "IRB 2400, M-20iA: coupled: [{axis: 3, joint: 2, factor: 1}])")
     return todo

@@ -28,7 +28,7 @@ from feedopt.errors import InputError
 
 #: Controller families (``controller.type``); ``generic`` gets no native program, only the
 #: RSI-style setpoint CSV.
-CONTROLLERS = ("kuka", "ur", "abb", "generic")
+CONTROLLERS = ("kuka", "ur", "abb", "fanuc", "generic")
 #: Joint stiffness a machining robot's joint can have [MN m/rad or MN/m]: from a small
 #: cobot's ~0.01 to ~10 for the largest arms (thesis Table 3.4: 0.14-3.93), with a decade of
 #: margin either side. Beyond it the number is a unit mistake.
@@ -76,14 +76,15 @@ class AxisConventionSection(schema.Strict):
 class ControllerSection(schema.Strict):
     """The controller the exports are written for."""
 
-    type: Literal["kuka", "ur", "abb", "generic"] = Field(
-        "generic", description="kuka (KRL, RSI), ur (URScript), abb (RAPID) or generic "
-        "(setpoint CSV only)")
+    type: Literal["kuka", "ur", "abb", "fanuc", "generic"] = Field(
+        "generic", description="kuka (KRL, RSI), ur (URScript), abb (RAPID), fanuc (LS) or "
+        "generic (setpoint CSV only)")
     axes: AxisConventionSection | None = Field(
-        None, description="the controller's axis convention; required for a kuka or abb "
-        "export (a KRL, RSI or RAPID program is never written with URDF angles; an ABB arm "
-        "with a parallel linkage reports A3 from the horizontal: coupled [{axis: 3, joint: 2, "
-        "factor: 1}]), identity when not given for ur and generic")
+        None, description="the controller's axis convention; required for a kuka, abb or "
+        "fanuc export (a KRL, RSI, RAPID or LS program is never written with URDF angles; "
+        "an ABB or FANUC arm with a parallel linkage reports A3/J3 from the horizontal: "
+        "coupled [{axis: 3, joint: 2, factor: 1}]), identity when not given for ur and "
+        "generic")
 
 
 class SourcedValues(schema.Strict):

@@ -76,6 +76,12 @@ def test_init_writes_a_robot_whose_fk_matches_the_urdf(tmp_path, capsys, urdf):
 def test_init_on_a_fanuc_expanded_from_its_xacro(tmp_path, capsys):
     """ROS-Industrial's FANUC M-20iA ships xacro only: expanded with the xacro package (its
     ``$(find package)`` paths pointed at the committed folders), then as any URDF."""
+
+    _check_init(tmp_path, capsys, expand_m20ia(tmp_path), 6, "flange", 0.0, ())
+
+
+def expand_m20ia(tmp_path: Path) -> Path:
+    """The M-20iA URDF expanded from the committed xacro (skips without xacro)."""
     import re
 
     xacro = pytest.importorskip("xacro")
@@ -89,7 +95,7 @@ def test_init_on_a_fanuc_expanded_from_its_xacro(tmp_path, capsys):
     urdf = tmp_path / "m20ia.urdf"
     urdf.write_text(xacro.process_file(str(work / "fanuc_m20ia_support" / "urdf" /
                                            "m20ia.xacro")).toprettyxml(indent="  "))
-    _check_init(tmp_path, capsys, urdf, 6, "flange", 0.0, ())
+    return urdf
 
 
 def _check_init(tmp_path, capsys, urdf, dof, flange, off_mm, locked):
