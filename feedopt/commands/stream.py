@@ -232,7 +232,9 @@ def run(args: argparse.Namespace) -> int:
                 bar.update(row - bar.n)
 
         def stream(log_path=None):
-            report_box.append(streamer.run(plan, log_path, progress=progress))
+            report_box.append(streamer.run(
+                plan, log_path, progress=progress,
+                announce=lambda text: print(f"feedopt stream: {text}", flush=True)))
 
         try:
             if log is None:

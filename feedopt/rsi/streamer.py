@@ -711,9 +711,11 @@ class Streamer:
         return current, bad
 
     def run(self, plan: CorrectionPlan, log_path: str | Path | None = None,
-            progress: Callable[[int, int], None] | None = None) -> StreamReport:
+            progress: Callable[[int, int], None] | None = None,
+            announce: Callable[[str], None] | None = None) -> StreamReport:
         """Stream ``plan`` to the controller (``settings.controller``, else the sender of the
-        first valid RSI packet); see the module docstring.
+        first valid RSI packet); see the module docstring. ``announce(text)`` once the
+        handshake has passed: what the controller sends and what the stream answers.
 
         Raises InputError when no valid RSI packet arrives within ``wait_s``, or the
         handshake fails (other cycle, robot not at the start, PID without a measurement);
@@ -725,7 +727,9 @@ class Streamer:
         try:
             if log is not None:
                 log.write(",".join(LOG_COLUMNS) + "\n")
-            return _Session(self, plan, log, progress).run()
+            session = _Session(self, plan, log, progress)
+            session.announce = announce
+            return session.run()
         finally:
             if gc_was_enabled:
                 gc.enable()
@@ -759,6 +763,7 @@ class _Session:
         self.restart: tuple[int, int] | None = None
         self.notes: list[str] = []
         self.controller_counts = False  # its packets carry Delay: its count decides
+        self.announce: Callable[[str], None] | None = None
 
     # -- receiving -----------------------------------------------------------------------
     def _from_controller(self, addr: tuple) -> bool:
@@ -884,6 +889,21 @@ class _Session:
             self._late_run(unanswered)
         return unanswered
 
+    def _handshake_text(self, packet: ControllerPacket) -> str:
+        """What the handshake found, stated once when the motion starts."""
+        fmt, logic = self.logic.format, self.logic
+        axis = self.plan.space is CorrectionSpace.AXIS
+        seen = "AIPos" if axis else "RIst"
+        checked = (f"the robot at the start by {seen}" if (packet.aipos if axis else packet.rist)
+                   is not None else f"no start check (no {seen}: --no-start-check)")
+        step = logic.ipoc_step
+        return (f"controller {self.controller[0]}:{self.controller[1]}: IPOC +{step} per "
+                f"{self.cycle_ms} ms packet"
+                + (" (it counts packets)" if step == 1 and self.cycle_ms != 1 else "")
+                + f", {checked}, late answers counted by "
+                + ("its Delay" if packet.delay is not None else "this PC's clock")
+                + f"; answering {fmt.element} ({', '.join(fmt.names)}), Type {fmt.sen_type}")
+
     def _late_run(self, late: int) -> None:
         """``late`` more late or missing answers in a row (0: one on time ends the run)."""
         n = self.n
@@ -928,6 +948,7 @@ class _Session:
             measured = self.measured_tracker
         else:
             measured = packet.rist
+        was_handshake = self.logic.phase is Phase.HANDSHAKE
         try:
             ans = self.logic.answer(packet, measured, unanswered)
         except InputError:
@@ -936,6 +957,8 @@ class _Session:
                                                  fmt=self.logic.format), self.controller)
             raise
         self.skipped = 0
+        if was_handshake and self.logic.phase is not Phase.HANDSHAKE and self.announce:
+            self.announce(self._handshake_text(packet))
         self.sock.sendto(build_sensor_answer(packet.ipoc, ans.sent, ans.stop,
                                              fmt=self.logic.format), self.controller)
         t_send = time.perf_counter()

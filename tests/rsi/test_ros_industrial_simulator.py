@@ -91,10 +91,13 @@ def test_the_ros_industrial_simulator_follows_an_axis_stream(tmp_path):
         host, port = streamer.address
         sim = subprocess.Popen([sys.executable, str(runner), host, str(port), str(log),
                                 "400"], stderr=subprocess.PIPE, text=True)
+        said = []
         try:
-            report = streamer.run(plan)
+            report = streamer.run(plan, announce=said.append)
         finally:
             sim.wait(timeout=60)
+    assert len(said) == 1 and "IPOC +1 per 4 ms packet (it counts packets)" in said[0]
+    assert "the robot at the start by AIPos" in said[0] and "answering AK (A1," in said[0]
     assert sim.returncode == 0, sim.stderr.read()
     assert report.status is StreamStatus.COMPLETED, report
     assert report.rows_sent == len(plan)
@@ -142,3 +145,33 @@ def test_a_configuration_without_one_correction_is_refused(tmp_path, body, messa
     p.write_text(body)
     with pytest.raises(InputError, match=message):
         read_ethernet_config(p)
+
+
+def test_a_killed_simulator_ends_the_stream_as_controller_silent(tmp_path):
+    """SIGKILL the simulator mid-trajectory: the stream says the controller went silent
+    before the end (not completed), having sent only rows of the planned path."""
+    import threading
+
+    fmt = read_ethernet_config(DATA / "ros_rsi_ethernet.xml")
+    plan = _axis_plan(1001)  # 4 s
+    runner = tmp_path / "run_simulator.py"
+    runner.write_text(_STUBS + "\n" + _simulator_source())
+    log = tmp_path / "published.jsonl"
+    settings = StreamSettings(listen=("127.0.0.1", 0), answer_format=fmt, max_step_deg=0.1,
+                              wait_s=20.0, silence_s=0.5, late_limit=10_000,
+                              late_after_s=1.0)
+    with Streamer(settings) as streamer:
+        host, port = streamer.address
+        sim = subprocess.Popen([sys.executable, str(runner), host, str(port), str(log),
+                                "100000"], stderr=subprocess.PIPE, text=True)
+        timer = threading.Timer(1.5, sim.kill)
+        timer.start()
+        try:
+            report = streamer.run(plan)
+        finally:
+            timer.cancel()
+            sim.kill()
+            sim.wait(timeout=30)
+    assert report.status is StreamStatus.CONTROLLER_SILENT, report
+    assert 0 < report.rows_sent < len(plan)
+    assert any("sent nothing for 0.5 s" in n for n in report.notes)
