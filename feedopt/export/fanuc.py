@@ -37,10 +37,15 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.export.frames import APPROACH_MM, LEAD_IN_MM, LEAD_OUT_MM, cell_frames, entry_exit
-from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.export.job import (
+    Blocker,
+    Exporter,
+    ExportJob,
+    controller_blocker,
+    header_notes,
+    status_line,
+)
 from feedopt.export.rapid import rapid_arc_lengths
-from feedopt.robot.axes import UNSTATED_AXES
-from feedopt.robot.model import six_axes_only
 from feedopt.units import MM
 
 #: Register holding the speed of the next moves [mm/sec].
@@ -172,15 +177,9 @@ def parse_ls_positions(text: str) -> dict[int, np.ndarray]:
 
 
 def early_check(robot, path) -> Blocker | None:
-    """Why no LS program can be written for this robot, known before planning."""
-    if robot.controller != "fanuc":  # the format does not apply: no warning
-        return Blocker(f"no FANUC program: robot {robot.name} has controller "
-                       f"'{robot.controller}' (robot.yaml), LS is for FANUC controllers",
-                       warn=False)
-    if not robot.axis_convention.stated:
-        return Blocker(f"no FANUC program: {UNSTATED_AXES}")
-    why = six_axes_only(robot, "FANUC program")
-    return None if why is None else Blocker(why)
+    """Why no FANUC program can be written for this robot, known before planning."""
+    del path
+    return controller_blocker(robot, "fanuc", "FANUC program", "LS")
 
 
 def export_fanuc(job: ExportJob, out_dir: Path) -> dict:

@@ -159,6 +159,24 @@ class Blocker:
     warn: bool = True
 
 
+def controller_blocker(robot: RobotModel, controller: str, what: str, language: str
+                       ) -> Blocker | None:
+    """Why a controller's own program (``what``, e.g. "RAPID module") cannot be written for
+    ``robot``: another controller family (no warning: the format does not apply), an axis
+    convention robot.yaml does not state (axis values would be URDF angles), or not 6 axes."""
+    from feedopt.robot.axes import UNSTATED_AXES
+    from feedopt.robot.model import six_axes_only
+
+    if robot.controller != controller:
+        return Blocker(f"no {what}: robot {robot.name} has controller '{robot.controller}' "
+                       f"(robot.yaml), {language} is for {controller.upper()} controllers",
+                       warn=False)
+    if not robot.axis_convention.stated:
+        return Blocker(f"no {what}: {UNSTATED_AXES}")
+    why = six_axes_only(robot, what)
+    return None if why is None else Blocker(why)
+
+
 @dataclass(frozen=True)
 class Exporter:
     """A registered output format.

@@ -49,9 +49,15 @@ from feedopt.export.frames import (
     cell_frames,
     entry_exit,
 )
-from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
-from feedopt.robot.axes import UNSTATED_AXES
-from feedopt.robot.model import forward_kinematics, six_axes_only
+from feedopt.export.job import (
+    Blocker,
+    Exporter,
+    ExportJob,
+    controller_blocker,
+    header_notes,
+    status_line,
+)
+from feedopt.robot.model import forward_kinematics
 from feedopt.units import MM
 
 #: Largest distance of the path from a chord through a blend [mm].
@@ -264,14 +270,8 @@ def parse_rapid_targets(text: str) -> dict[str, dict]:
 
 def early_check(robot, path) -> Blocker | None:
     """Why no RAPID module can be written for this robot, known before planning."""
-    if robot.controller != "abb":  # the format does not apply: no warning
-        return Blocker(f"no RAPID module: robot {robot.name} has controller "
-                       f"'{robot.controller}' (robot.yaml), RAPID is for ABB controllers",
-                       warn=False)
-    if not robot.axis_convention.stated:
-        return Blocker(f"no RAPID module: {UNSTATED_AXES}")
-    why = six_axes_only(robot, "RAPID module")
-    return None if why is None else Blocker(why)
+    del path
+    return controller_blocker(robot, "abb", "RAPID module", "RAPID")
 
 
 def export_rapid(job: ExportJob, out_dir: Path) -> dict:

@@ -12,6 +12,7 @@ RSIPI knows), which ``feedopt stream --config`` must follow.
 from __future__ import annotations
 
 import importlib.util
+import re
 import sys
 import types
 from pathlib import Path
@@ -58,24 +59,17 @@ def _plan(space: CorrectionSpace, rows: int = 251):
     return plan_from_table(RsiTable.from_matrix(m), CYCLE, "echo.csv", space)
 
 
-@pytest.mark.parametrize("space", list(CorrectionSpace))
-def test_rsipi_echo_server_follows_the_stream(tmp_path, monkeypatch, space):
-    monkeypatch.chdir(tmp_path)  # the echo server logs to ./logs
+def _free_port() -> int:
+    with Streamer(StreamSettings(listen=("127.0.0.1", 0))) as probe:
+        return probe.address[1]
+
+
+def _stream_to_echo(tmp_path, config: Path, settings: StreamSettings, plan):
+    """Run ``plan`` through the stream to RSIPI's echo server on ``config`` (absolute mode):
+    (the stream's report or the InputError it raised, the server)."""
+    from feedopt.errors import InputError
+
     echo = _echo_server_module()
-    plan = _plan(space)
-    with Streamer(StreamSettings(listen=("127.0.0.1", 0), wait_s=20.0, hold_s=0.2,
-                                 late_limit=10_000, late_after_s=1.0)) as probe:
-        port = probe.address[1]  # a free port for the configuration
-    xml = ethernet_config_xml(ip="127.0.0.1", port=port, space=space)
-    if space is CorrectionSpace.AXIS:
-        xml = xml.replace('TAG="AK.', 'TAG="AKorr.')
-    config = tmp_path / "eth.xml"
-    config.write_text(xml)
-    fmt = read_ethernet_config(config)
-    assert fmt.element == ("RKorr" if space is CorrectionSpace.CARTESIAN else "AKorr")
-    settings = StreamSettings(listen=("127.0.0.1", port), answer_format=fmt, wait_s=20.0,
-                              hold_s=0.2, late_limit=10_000, late_after_s=1.0,
-                              max_step_deg=0.1, max_step_mm=0.1)
     with Streamer(settings) as streamer:
         try:
             server = echo.EchoServer(str(config), delay_ms=4, mode="absolute",
@@ -84,9 +78,28 @@ def test_rsipi_echo_server_follows_the_stream(tmp_path, monkeypatch, space):
             pytest.skip(f"RSIPI's echo server cannot bind its port 50000: {exc}")
         server.start()
         try:
-            report = streamer.run(plan)
+            return streamer.run(plan), server
+        except InputError as exc:
+            return exc, server
         finally:
             server.stop()
+
+
+@pytest.mark.parametrize("space", list(CorrectionSpace))
+def test_rsipi_echo_server_follows_the_stream(tmp_path, monkeypatch, space):
+    monkeypatch.chdir(tmp_path)  # the echo server logs to ./logs
+    port = _free_port()
+    xml = ethernet_config_xml(ip="127.0.0.1", port=port, space=space)
+    if space is CorrectionSpace.AXIS:
+        xml = xml.replace('TAG="AK.', 'TAG="AKorr.')
+    config = tmp_path / "eth.xml"
+    config.write_text(xml)
+    fmt = read_ethernet_config(config)
+    assert fmt.element == ("RKorr" if space is CorrectionSpace.CARTESIAN else "AKorr")
+    plan = _plan(space)
+    report, server = _stream_to_echo(tmp_path, config, StreamSettings(
+        listen=("127.0.0.1", port), answer_format=fmt, wait_s=20.0, hold_s=0.2,
+        late_limit=10_000, late_after_s=1.0, max_step_deg=0.1, max_step_mm=0.1), plan)
     assert report.status is StreamStatus.COMPLETED, report
     assert any("advanced by 4 per 4 ms packet" in n for n in report.notes)
     assert server.faulty_packets == 0  # every answer had the right IPOC and Type
@@ -104,24 +117,14 @@ def test_answers_the_controller_rejects_are_named_as_a_type_mismatch(tmp_path, m
     from feedopt.errors import InputError
 
     monkeypatch.chdir(tmp_path)
-    echo = _echo_server_module()
-    with Streamer(StreamSettings(listen=("127.0.0.1", 0))) as probe:
-        port = probe.address[1]
+    port = _free_port()
     config = tmp_path / "eth.xml"
     config.write_text(ethernet_config_xml(ip="127.0.0.1", port=port))  # SENTYPE ImFree
-    settings = StreamSettings(listen=("127.0.0.1", port), sen_type="NotImFree", wait_s=20.0)
-    with Streamer(settings) as streamer:
-        try:
-            server = echo.EchoServer(str(config), delay_ms=4, mode="absolute",
-                                     timeout_packets=10_000)
-        except OSError as exc:
-            pytest.skip(f"RSIPI's echo server cannot bind its port 50000: {exc}")
-        server.start()
-        try:
-            with pytest.raises(InputError, match=r"probably rejects them.*SENTYPE.*NotImFree"):
-                streamer.run(_plan(CorrectionSpace.CARTESIAN))
-        finally:
-            server.stop()
+    error, server = _stream_to_echo(tmp_path, config, StreamSettings(
+        listen=("127.0.0.1", port), sen_type="NotImFree", wait_s=20.0),
+        _plan(CorrectionSpace.CARTESIAN))
+    assert isinstance(error, InputError)
+    assert re.search(r"probably rejects them.*SENTYPE.*NotImFree", str(error))
     assert server.faulty_packets >= 3
 
 
@@ -130,23 +133,11 @@ def test_the_controller_s_count_decides_not_this_pc_s_clock(tmp_path, monkeypatc
     controller's count (RSIPI's Delay stays 0): the stream completes; the report keeps both
     counts. With a count of its own only it would have stopped at 5 in a row."""
     monkeypatch.chdir(tmp_path)
-    echo = _echo_server_module()
-    with Streamer(StreamSettings(listen=("127.0.0.1", 0))) as probe:
-        port = probe.address[1]
+    port = _free_port()
     config = tmp_path / "eth.xml"
     config.write_text(ethernet_config_xml(ip="127.0.0.1", port=port))
-    settings = StreamSettings(listen=("127.0.0.1", port), wait_s=20.0, hold_s=0.2,
-                              late_limit=5, late_after_s=1e-9)
-    with Streamer(settings) as streamer:
-        try:
-            server = echo.EchoServer(str(config), delay_ms=4, mode="absolute",
-                                     timeout_packets=10_000)
-        except OSError as exc:
-            pytest.skip(f"RSIPI's echo server cannot bind its port 50000: {exc}")
-        server.start()
-        try:
-            report = streamer.run(_plan(CorrectionSpace.CARTESIAN, rows=101))
-        finally:
-            server.stop()
+    report, _ = _stream_to_echo(tmp_path, config, StreamSettings(
+        listen=("127.0.0.1", port), wait_s=20.0, hold_s=0.2, late_limit=5,
+        late_after_s=1e-9), _plan(CorrectionSpace.CARTESIAN, rows=101))
     assert report.status is StreamStatus.COMPLETED, report
     assert report.late >= 100 and report.controller_late == 0
