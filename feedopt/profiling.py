@@ -11,11 +11,14 @@ from dataclasses import dataclass
 Progress = Callable[[str], None]
 
 
+def stderr_progress(message: str) -> None:
+    """The runner's console progress: each message on its own line of stderr."""
+    print(message, file=sys.stderr, flush=True)
+
+
 def is_console(progress: Progress) -> bool:
     """True for the runner's own console progress (bars are drawn only for it)."""
-    from feedopt.runner import _stderr_progress
-
-    return progress is _stderr_progress
+    return progress is stderr_progress
 
 
 # A stage that runs longer than this [s] shows a progress bar (console runs on a terminal).
@@ -27,7 +30,7 @@ def progress_bar(progress: Progress, what: str, unit: str = " samples",
                  unit_scale: bool = True) -> Iterator[Callable[[int, int], None] | None]:
     """``update(done, total)`` drawing a tqdm bar on stderr for a long stage, or None.
 
-    Only for the console's own progress (:func:`_stderr_progress`) on a terminal: a caller
+    Only for the console's own progress (:func:`stderr_progress`) on a terminal: a caller
     with its own ``progress`` (tests, sweeps, benchmarks) or a redirected stderr gets no bar.
     The bar appears after :data:`_BAR_DELAY_S` and is removed when the stage ends (the
     stage's summary line follows).

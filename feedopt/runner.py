@@ -11,11 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import sys
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
 
@@ -36,14 +34,21 @@ from feedopt.process.program import (
 )
 from feedopt.process.program_stock import resolve_program_stock
 from feedopt.process.program_tool import check_program_tool
-from feedopt.process.stage import ProcessAlongPath, feed_range_warnings, process_along_path
+from feedopt.process.stage import feed_range_warnings, process_along_path
 from feedopt.process.tool import load_tool
-from feedopt.profiling import RunProfile, StageTiming, peak_memory_bytes, progress_bar
+from feedopt.profiling import (
+    RunProfile,
+    StageTiming,
+    peak_memory_bytes,
+    progress_bar,
+)
+from feedopt.profiling import stderr_progress as _stderr_progress
 from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.ik import UnreachableError
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggest_workpiece_position
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
+from feedopt.run_data import Compensated, Front, LawResult, Prepared, RunResult
 from feedopt.scenario import (
     Scenario,
     load_scenario,
@@ -51,13 +56,12 @@ from feedopt.scenario import (
     scenario_input_files,
     scenario_warnings,
 )
-from feedopt.schedule.compensation import CompensatedPath, CompensationCheck
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
 from feedopt.schedule.polynomial import sample_piece_chunks
-from feedopt.schedule.stage import ScheduleInputs, interior_stop_indices, schedule_problem
+from feedopt.schedule.stage import interior_stop_indices, schedule_problem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM, MS
-from feedopt.verify import Verdict, Verification, is_finite, replay_all
+from feedopt.verify import Verdict, is_finite, replay_all
 
 # The largest number of path samples a run plans is feedopt.geometry.path.MAX_SAMPLES (shared
 # with feedopt path: check_sample_count).
@@ -66,94 +70,6 @@ from feedopt.verify import Verdict, Verification, is_finite, replay_all
 MAX_CONTROLLER_ROWS = 10_000_000
 _BYTES_PER_ROW = 250
 Progress = Callable[[str], None]
-
-
-def _stderr_progress(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
-@dataclass
-class Prepared:
-    """Everything upstream of the timing laws: each stage's result, SI units."""
-
-    scenario: Scenario
-    base_dir: Path
-    path: ToolPath
-    samples: PathPoints  # workpiece frame
-    placement: Placement
-    process: ProcessAlongPath
-    robot: RobotModel
-    along: RobotAlongPath
-    schedule: ScheduleInputs
-    stage_times: dict[str, float] = field(default_factory=dict)
-    # What the run does that the user should know (placeholder robot data, tight radii, an
-    # export that will be skipped...): printed, in summary.json and in the report.
-    warnings: list[str] = field(default_factory=list)
-    # {exporter: why it cannot write for this run}, known before planning.
-    export_blockers: dict = field(default_factory=dict)  # {exporter: export.job.Blocker}
-    # {law: why it declined this problem} (feedopt.errors.LawNotApplicable), set by planning.
-    declined: dict[str, str] = field(default_factory=dict)
-    # robot.redundancy: optimise: the psi(s) profile (feedopt.robot.redundancy.RedundancyResult)
-    # and the nearest IK's compliance it is compared with
-    redundancy: object | None = None
-    nearest_compliance: np.ndarray | None = None
-
-    # Shorthands for what the summary, the report and tests read most.
-    @property
-    def problem(self):
-        return self.schedule.problem
-
-    @property
-    def model(self):
-        return self.schedule.model
-
-    @property
-    def bound(self):
-        return self.schedule.bound
-
-    @property
-    def limit(self) -> float:
-        return self.schedule.limit
-
-    @property
-    def q_of_s(self):
-        return self.along.q_of_s
-
-    @property
-    def ik(self):
-        return self.along.ik
-
-    @property
-    def positions(self) -> np.ndarray:
-        return self.placement.positions
-
-    @property
-    def tool(self):
-        return self.process.tool
-
-    @property
-    def coefficient_table(self):
-        return self.process.table
-
-
-@dataclass
-class LawResult:
-    trajectory: Trajectory
-    verification: Verification
-    planning_time: float
-    verification_time: float = 0.0
-    # residual mode: the commanded path, the robot and schedule along it, and the check
-    compensation: Compensated | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class Compensated:
-    """A law planned for ``deflection.mode: residual`` on its compensated path."""
-
-    path: CompensatedPath  # commanded = nominal - mean deflection (fixed point)
-    along: RobotAlongPath  # IK and compliance along the commanded path
-    schedule: ScheduleInputs  # bound and problem on that compliance
-    check: CompensationCheck
 
 
 def _segment_names(path: ToolPath) -> list[str]:
@@ -183,19 +99,6 @@ def _check_output_size(lower_bound_time: float, cycle: float) -> None:
             f"{rows:.3g} RSI cycles of {cycle / MS:g} ms (about {rows * _BYTES_PER_ROW / 1e9:.3g} "
             f"GB of CSV per law); at most {MAX_CONTROLLER_ROWS:.0e} cycles are exported: split "
             "the job, or check the feed (a feed far below the nominal makes long jobs)")
-
-
-@dataclass
-class Front:
-    """The geometry, cell and process stages of a run (what ``feedopt engagement`` needs)."""
-
-    scenario: Scenario  # with a program's F and S filled in
-    path: ToolPath
-    samples: PathPoints
-    placement: Placement
-    process: ProcessAlongPath
-    warnings: list[str]
-    times: dict[str, float]
 
 
 def prepare_front(
@@ -560,16 +463,6 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
                  f"deflection {ver.max_deflection / MM:.4f} mm, FK + mean deflection - nominal "
                  f"{check.max_error / MM:.1e} mm, {ver.verdict.value}")
     return out
-
-
-@dataclass
-class RunResult:
-    out_dir: Path
-    prepared: Prepared
-    laws: dict[str, LawResult]
-    summary: dict
-    table: str
-    profile: RunProfile | None = None
 
 
 def _monotone_within_path(trajectory: Trajectory, length: float) -> bool:

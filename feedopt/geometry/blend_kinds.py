@@ -27,7 +27,7 @@ from feedopt.geometry import arclength, blends
 from feedopt.geometry.registry import RADIUS, TOLERANCE, BlendKind, BuiltBlends, register_blend
 
 if TYPE_CHECKING:  # pragma: no cover
-    from feedopt.geometry.path import Segment
+    from feedopt.geometry.segment import Segment
 
 # bezier4 blends of corners turning more than pi - this [rad] are refused: alpha of Eq. 3.3
 # tends to 0 while p_2 stays on the corner, so the speed nearly vanishes at both ends and

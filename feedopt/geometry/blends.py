@@ -15,29 +15,8 @@ from math import comb
 
 import numpy as np
 
+from feedopt.geometry.corners import Corners as Corners
 from feedopt.geometry.registry import get_blend
-
-
-@dataclass(frozen=True)
-class Corners:
-    """Geometry of the interior corners of a polyline (one row per interior waypoint).
-
-    Attributes
-    ----------
-    point : (m, 3) corner waypoint q_k [m]
-    d_in, d_out : (m, 3) unit travel directions of the incoming and outgoing lines
-    turn : (m,) turning angle gamma in [0, pi] [rad] (corner angle alpha = pi - gamma)
-    normal : (m, 3) unit inward normal in the corner plane (zeros where turn == 0)
-    len_in, len_out : (m,) lengths of the incoming and outgoing lines [m]
-    """
-
-    point: np.ndarray
-    d_in: np.ndarray
-    d_out: np.ndarray
-    turn: np.ndarray
-    normal: np.ndarray
-    len_in: np.ndarray
-    len_out: np.ndarray
 
 
 def corner_geometry(waypoints: np.ndarray) -> Corners:

@@ -30,7 +30,7 @@ import numpy as np
 from feedopt.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover - typing only (blends/path import this module)
-    from feedopt.geometry.blends import Corners
+    from feedopt.geometry.corners import Corners
 
 LINE = "line"  #: segment kind of the lines of an LIPB path (not a blend)
 NO_BLEND = "none"  #: blend choice that leaves every corner sharp

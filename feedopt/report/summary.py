@@ -14,7 +14,7 @@ from feedopt.process.program import unmodelled_plunge_moves
 from feedopt.units import MM
 
 if TYPE_CHECKING:
-    from feedopt.runner import LawResult, Prepared
+    from feedopt.run_data import LawResult, Prepared
     from feedopt.schedule.checks import Ramp
 
 

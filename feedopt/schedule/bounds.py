@@ -33,6 +33,11 @@ from feedopt.schedule.deflection import (
     GridExtreme,
     counting,
 )
+from feedopt.schedule.roots import (
+    upper_roots_norm,
+    upper_roots_projected,
+    upper_roots_quadratic,
+)
 from feedopt.units import MM
 
 
@@ -96,37 +101,11 @@ class FeedBound:
         return {name: float(np.sum(self.active == i)) / n for i, name in enumerate(self.names)}
 
 
-def _upper_roots_norm(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
-    """Per angle, the largest c with |c a + b| <= limit (``inf`` without cutting force)."""
-    return _upper_roots_quadratic(np.einsum("...i,...i->...", a, a),
-                                  np.einsum("...i,...i->...", a, b),
-                                  np.einsum("...i,...i->...", b, b), limit)
-
-
-def _upper_roots_quadratic(aa: np.ndarray, ab: np.ndarray, bb: np.ndarray,
-                           limit: float) -> np.ndarray:
-    """Per angle, the largest c with c^2 aa + 2 c ab + bb <= limit^2, i.e. |c a + b| <= limit
-    given aa = |a|^2, ab = a.b, bb = |b|^2 (``inf`` without cutting force, aa = 0)."""
-    qc = bb - limit * limit  # <= 0 where feasible at c = 0
-    disc = np.sqrt(np.maximum(ab * ab - aa * qc, 0.0))
-    # Upper root (-ab + disc) / aa, written without cancellation for ab > 0.
-    with np.errstate(divide="ignore", invalid="ignore"):
-        root = np.where(ab > 0, -qc / (ab + disc), (disc - ab) / aa)
-    root = np.where(aa > 0, root, np.inf)
-    return np.where(np.isnan(root), 0.0, root)
-
-
-def _upper_roots_projected(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
-    """Per angle, the largest c with |c a + b| <= limit for scalar a, b."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(a > 0, (limit - b) / a, np.where(a < 0, (-limit - b) / a, np.inf))
-
-
 def upper_roots(terms: AngleTerms, limit: float) -> np.ndarray:
     """Per sample and angle (k, M), the largest c with the limited deflection <= limit."""
     if terms.quadratic:
-        return _upper_roots_quadratic(terms.aa, terms.ab, terms.bb, limit)
-    return _upper_roots_projected(terms.a, terms.b, limit)
+        return upper_roots_quadratic(terms.aa, terms.ab, terms.bb, limit)
+    return upper_roots_projected(terms.a, terms.b, limit)
 
 
 def smallest_upper_root(terms: AngleTerms, limit: float) -> GridExtreme:
@@ -150,12 +129,12 @@ def largest_feed_per_tooth_norm(a: np.ndarray, b: np.ndarray, limit: float) -> n
     -------
     (k,) array of c_max [m]; ``inf`` where no angle has a cutting contribution.
     """
-    return np.maximum(np.min(_upper_roots_norm(a, b, limit), axis=1), 0.0)
+    return np.maximum(np.min(upper_roots_norm(a, b, limit), axis=1), 0.0)
 
 
 def largest_feed_per_tooth_projected(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarray:
     """Largest c >= 0 with max over angles of |c a + b| <= limit for scalar (k, m) a, b."""
-    return np.maximum(np.min(_upper_roots_projected(a, b, limit), axis=1), 0.0)
+    return np.maximum(np.min(upper_roots_projected(a, b, limit), axis=1), 0.0)
 
 
 @dataclass(frozen=True)

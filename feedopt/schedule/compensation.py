@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.schedule.roots import upper_roots_norm
 from feedopt.units import MM
 
 #: Offsets change by less than this between iterations when the fixed point is reached [m].
@@ -43,8 +44,6 @@ class CompensationCapConstraint:
     name: str = "compensation_cap"
 
     def v_max(self, inputs) -> np.ndarray:
-        from feedopt.schedule.bounds import _upper_roots_norm
-
         model, cap = inputs.model, inputs.compensation_cap
         if model.mode != "residual" or not np.isfinite(cap):
             return np.full(inputs.n, np.inf)
@@ -58,7 +57,7 @@ class CompensationCapConstraint:
                 f"deflection of the edge forces alone (zero feed) at {bad.size} samples, the "
                 f"worst sample {i} with {zero[i] / MM:.4g} mm; the smallest workable cap is "
                 f"above {zero.max() / MM:.4g} mm")
-        c = _upper_roots_norm(a[:, None, :], b[:, None, :], cap)[:, 0]
+        c = upper_roots_norm(a[:, None, :], b[:, None, :], cap)[:, 0]
         return np.maximum(c, 0.0) * model.feed_per_unit_c
 
 
