@@ -58,6 +58,13 @@ def add_parser(subparsers) -> None:
     p.add_argument("--max-step-deg", type=float, default=0.1, metavar="DEG",
                    help="largest change of each angle correction between two answers "
                    "(default 0.1 deg)")
+    _add_controller_options(p)
+    p.set_defaults(func=run)
+
+
+def _add_controller_options(p) -> None:
+    """The options that describe the controller's side (its address, configuration, IPOC,
+    packets) and the closed loop."""
     p.add_argument("--controller", metavar="HOST[:PORT]",
                    help="the controller's address (its RSI network card); packets from any "
                    "other sender are counted and ignored (default: the sender of the first "
@@ -94,7 +101,6 @@ def add_parser(subparsers) -> None:
     p.add_argument("--realtime", action="store_true",
                    help="ask for real-time scheduling (SCHED_FIFO; Linux, needs CAP_SYS_NICE): "
                    "what keeps answers within the cycle on a loaded machine")
-    p.set_defaults(func=run)
 
 
 def _positive(value: float, option: str, example: str) -> float:
