@@ -10,7 +10,6 @@ when everything succeeded (:mod:`feedopt.outdir`).
 from __future__ import annotations
 
 import dataclasses
-import json
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -19,18 +18,17 @@ from pathlib import Path
 
 import numpy as np
 
-from feedopt import background, outdir
+from feedopt import background, outdir, outputs
 from feedopt.cell import Placement, place_path
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints, check_sample_count
 from feedopt.geometry.program_path import segment_labels
 from feedopt.geometry.stage import path_from_section
+from feedopt.outputs import write_outputs as write_outputs
 from feedopt.parallel import single_threaded_blas
 from feedopt.process.program import (
     apply_program,
-    unmodelled_plunge_moves,
-    unmodelled_plunge_note,
 )
 from feedopt.process.program_stock import resolve_program_stock
 from feedopt.process.program_tool import check_program_tool
@@ -43,7 +41,6 @@ from feedopt.profiling import (
     progress_bar,
 )
 from feedopt.profiling import stderr_progress as _stderr_progress
-from feedopt.report.data import engagement_series, redundancy_series
 from feedopt.robot.ik import UnreachableError
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggest_workpiece_position
@@ -57,18 +54,11 @@ from feedopt.scenario import (
     scenario_warnings,
 )
 from feedopt.schedule.laws import LAWS, plan_law, planning_order
-from feedopt.schedule.polynomial import sample_piece_chunks
 from feedopt.schedule.stage import interior_stop_indices, schedule_problem
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM, MS
-from feedopt.verify import Verdict, is_finite, replay_all
+from feedopt.verify import Verdict, replay_all
 
-# The largest number of path samples a run plans is feedopt.geometry.path.MAX_SAMPLES (shared
-# with feedopt path: check_sample_count).
-# Largest number of controller cycles one exported trajectory may have: 11 h at 4 ms, about
-# 2.5 GB of RSI CSV (~250 bytes per row). Checked on T* before planning and per law after.
-MAX_CONTROLLER_ROWS = 10_000_000
-_BYTES_PER_ROW = 250
 Progress = Callable[[str], None]
 
 
@@ -84,21 +74,6 @@ def _segment_names(path: ToolPath) -> list[str]:
 def _sample(path: ToolPath, spacing: float) -> PathPoints:
     check_sample_count(path.length, spacing, "path.spacing_mm")
     return path.sample(spacing)
-
-
-def _rows(duration: float, cycle: float) -> float:
-    return duration / cycle + 1
-
-
-def _check_output_size(lower_bound_time: float, cycle: float) -> None:
-    """InputError before planning when even the fastest law would write too many rows."""
-    rows = _rows(lower_bound_time, cycle)
-    if rows > MAX_CONTROLLER_ROWS:
-        raise InputError(
-            f"the fastest trajectory the feed bound allows lasts {lower_bound_time:.4g} s, "
-            f"{rows:.3g} RSI cycles of {cycle / MS:g} ms (about {rows * _BYTES_PER_ROW / 1e9:.3g} "
-            f"GB of CSV per law); at most {MAX_CONTROLLER_ROWS:.0e} cycles are exported: split "
-            "the job, or check the feed (a feed far below the nominal makes long jobs)")
 
 
 def prepare_front(
@@ -202,7 +177,8 @@ def prepare(
     warnings += feed_range_warnings(process.table, [
         ("the lowest feed of the bound", float(np.min(v_max[1:-1] if v_max.size > 2 else v_max)))
     ], scenario.cut.spindle_rpm, process.tool)
-    _check_output_size(schedule.problem.lower_bound_time(), scenario.export.rsi_cycle_ms * MS)
+    outputs.check_output_size(schedule.problem.lower_bound_time(),
+                              scenario.export.rsi_cycle_ms * MS)
     times["bounds"] = time.perf_counter() - t0
     warnings += [b.reason for b in blockers.values() if b.warn]
     for w in warnings:
@@ -286,7 +262,7 @@ def plan_and_verify(
     sent: dict[str, background.Prestarted] = {}
     order = planning_order(laws)
     workers = dict(workers or {})
-    if prepared.problem.n > CHILD_COPY_MAX_SAMPLES:  # its own copy would cost more than it saves
+    if prepared.problem.n > outputs.CHILD_COPY_MAX_SAMPLES:  # a copy would cost more than saved
         for worker in workers.values():
             worker.join(cancel=True)
         workers = {}
@@ -463,150 +439,6 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
                  f"deflection {ver.max_deflection / MM:.4f} mm, FK + mean deflection - nominal "
                  f"{check.max_error / MM:.1e} mm, {ver.verdict.value}")
     return out
-
-
-def _monotone_within_path(trajectory: Trajectory, length: float) -> bool:
-    """s(t) stays in [0, L] (a reversing law cannot be resampled onto the path)."""
-    pp = trajectory.timing
-    return all(s.min() >= -1e-9 and s.max() <= length + 1e-9
-               for s in map(pp, sample_piece_chunks(pp.x, 9)))
-
-
-def export_notes(prepared: Prepared) -> tuple[str, ...]:
-    """What every exported file's header says about the run beyond its law: plunges that
-    are not deflection-limited (no plunge coefficients)."""
-    moves = prepared.path.moves
-    if moves is None:
-        return ()
-    note = unmodelled_plunge_note(
-        moves, unmodelled_plunge_moves(moves, prepared.samples.s,
-                                       prepared.process.unmodelled_plunge),
-        prepared.scenario.feed.plunge_max_mm_s)
-    return () if note is None else (note,)
-
-
-def write_outputs(
-    prepared: Prepared,
-    results: dict[str, LawResult],
-    out_dir: Path,
-    export_unverified: bool = False,
-    report: bool = True,
-    times: dict[tuple[str, str], float] | None = None,
-    drawing: background.Prestarted | None = None,
-    progress: Progress | None = None,
-) -> dict:
-    """Every registered exporter's files, summary.json and the report into ``out_dir``.
-
-    ``times`` (optional) receives the wall time [s] of ``("export", law)`` (controller
-    samples and every exporter of the law) and ``("report", "")`` (the report is drawn in a
-    forked child while the exporters write: its row is the wait after them). ``drawing``: a
-    child started with :func:`report_worker` before planning, which has imported the plotting
-    libraries meanwhile (else one is forked here). ``progress``: the run's progress (a bar
-    over the exported laws on a terminal).
-    """
-    times = {} if times is None else times
-    from feedopt.export.job import ExportJob, controller_samples, run_exporters
-    from feedopt.report.run import law_series, write_run_report
-    from feedopt.report.summary import law_summary, scenario_summary
-
-    sc, problem = prepared.scenario, prepared.problem
-    cycle = sc.export.rsi_cycle_ms * MS
-    summary = {"scenario": scenario_summary(prepared),
-               "warnings": list(prepared.warnings) + [f"law {law} declined: {why}" for law, why
-                                                      in prepared.declined.items()],
-               "declined_laws": dict(prepared.declined), "laws": {}}
-    series, pending = [], []
-    notes = export_notes(prepared)
-    for law, res in results.items():
-        entry = law_summary(prepared, res)
-        ver = res.verification
-        entry["exportable"] = ver.exportable
-        entry["export_blockers"] = list(ver.export_blockers)
-        drawable = is_finite(res.trajectory) and _monotone_within_path(res.trajectory,
-                                                                       problem.length)
-        rows = _rows(res.trajectory.duration, cycle) if drawable else 0.0
-        if rows > MAX_CONTROLLER_ROWS:  # too long to sample, draw or export
-            drawable = False
-            entry["exportable"] = False
-            entry["export_blockers"].append(
-                f"{res.trajectory.duration:.4g} s is {rows:.3g} controller cycles, more than the "
-                f"{MAX_CONTROLLER_ROWS:.0e} exported")
-        exported = drawable and (ver.exportable or export_unverified)
-        entry["exported"] = exported
-        summary["laws"][law] = entry
-        if not drawable:
-            continue
-        t0 = time.perf_counter()
-        comp = res.compensation
-        q_of_s = prepared.q_of_s if comp is None else comp.along.q_of_s
-        samples = controller_samples(res.trajectory, cycle, q_of_s, problem.length)
-        if exported:
-            spec = LAWS.get(law)
-            def nominal_in_base(s: np.ndarray) -> np.ndarray:
-                return prepared.placement.to_base(prepared.path.evaluate(s).position)
-
-            job = ExportJob(
-                law=law, scenario_name=sc.name, trajectory=res.trajectory, verification=ver,
-                problem=problem, robot=prepared.robot, q_of_s=q_of_s,
-                path_in_base=(nominal_in_base if comp is None
-                              else comp.path.commanded_at(problem.s)),
-                compensation=None if comp is None else comp.path.samples(problem.s),
-                samples=samples, cycle=cycle, limit_mm=sc.deflection.limit_mm,
-                unverified_on_request=not ver.exportable,
-                native_program=bool(spec is not None and spec.native_program),
-                blockers=prepared.export_blockers, tool_axes=prepared.placement.tool_axes,
-                notes=notes,
-            )
-            pending.append((law, entry, job))
-        times[("export", law)] = time.perf_counter() - t0
-        if report:
-            series.append(law_series(law, problem.s, ver, samples,
-                                     prepared.robot.axis_convention.unit))
-    if report:  # drawn in a forked child while the exporters write (feedopt.background)
-        t_report = time.perf_counter()
-        material = prepared.process.material
-        engagement = (None if material is None
-                      else engagement_series(prepared.samples, material))
-        red = (None if prepared.redundancy is None
-               else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
-                                      prepared.placement))
-        draw = partial(write_run_report, out_dir, sc.name, summary, prepared.positions,
-                       prepared.samples.segment, problem, series, sc.deflection.limit_mm,
-                       engagement, red, prepared.robot.axis_convention.unit)
-        if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
-            drawing.submit(draw.func, *draw.args)  # the child has imported matplotlib
-        else:  # a long path: fork now and share the data instead of sending a copy
-            if drawing is not None:
-                drawing.join(cancel=True)
-            drawing = background.start(draw, "drawing the report")
-    exporting = 0.0
-    try:
-        with progress_bar(progress, "[5/5] export", " laws", False) as bar:
-            for done, (law, entry, job) in enumerate(pending, start=1):
-                t0 = time.perf_counter()
-                entry.update(run_exporters(job, out_dir))
-                times[("export", law)] += time.perf_counter() - t0
-                exporting += time.perf_counter() - t0
-                if bar is not None:
-                    bar(done, len(pending))
-    except BaseException:
-        if drawing is not None:
-            drawing.join(cancel=True)
-        raise
-    if drawing is not None:
-        drawing.join()
-        # the part of the drawing the exports did not hide (rows add up to the wall time)
-        times[("report", "")] = time.perf_counter() - t_report - exporting
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
-    return summary
-
-
-#: Above this many path samples the children started before planning are let go: a law is
-#: planned here, not in its worker, and the report's child is forked when its data is ready
-#: (sharing it, copy-on-write). Their own copy of the data and the solver's memory (about
-#: 1 kB per sample for convex, 0.3 kB for the report) would sit next to this process's,
-#: while the imports they save (~0.5 s each) are a small part of such a run.
-CHILD_COPY_MAX_SAMPLES = 200_000
 
 
 def _plan_law_timed(law: str, problem, context: dict[str, Trajectory], options

@@ -30,7 +30,7 @@ MAX_TEXT_BYTES = 512 * MIB
 #: material or robot file is hand-written and a few KiB: more than a few MiB is a wrong file
 #: (an all-comment 500 MB scenario took validate minutes to parse). Data files get room for
 #: the largest input the commands plan: an RSI CSV of the longest exported trajectory
-#: (feedopt.runner.MAX_CONTROLLER_ROWS rows of ~250 bytes).
+#: (feedopt.outputs.MAX_CONTROLLER_ROWS rows of ~250 bytes).
 MAX_BYTES_BY_KIND: dict[str, int] = {
     "scenario file": 4 * MIB,
     "tool": 1 * MIB,

@@ -93,9 +93,9 @@ def test_bad_input_found_in_the_child_is_the_same_input_error(child_law, quick_s
 def test_a_long_path_is_planned_here(child_law, quick_scenario, tmp_path, monkeypatch) -> None:
     """Above CHILD_COPY_MAX_SAMPLES the worker is let go and the law planned in this process
     (its memory is not held next to ours)."""
-    import feedopt.runner as runner
+    import feedopt.outputs as outputs
 
-    monkeypatch.setattr(runner, "CHILD_COPY_MAX_SAMPLES", 10)
+    monkeypatch.setattr(outputs, "CHILD_COPY_MAX_SAMPLES", 10)
     path = quick_scenario("triangle_slot", path__spacing_mm=2.0, schedule__laws=["child"])
     result = run_scenario(path, out_dir=tmp_path / "o", progress=quiet)
     assert result.laws["child"].trajectory.notes[0] == f"pid {os.getpid()}"

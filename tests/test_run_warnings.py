@@ -101,9 +101,9 @@ def test_force_workload_cap_is_said_before_any_force_is_computed(
 
 
 def test_output_size_cap_refuses_before_planning(tmp_path, quick_scenario, monkeypatch) -> None:
-    import feedopt.runner as runner
+    import feedopt.outputs as outputs
 
-    monkeypatch.setattr(runner, "MAX_CONTROLLER_ROWS", 1000)  # T* of this cut is ~54 s
+    monkeypatch.setattr(outputs, "MAX_CONTROLLER_ROWS", 1000)  # T* of this cut is ~54 s
     p = quick_scenario(path__spacing_mm=2.0, schedule__laws=["jerk"])
     with pytest.raises(InputError, match=r"RSI cycles of 4 ms .* GB of CSV"):
         run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None)
@@ -112,7 +112,7 @@ def test_output_size_cap_refuses_before_planning(tmp_path, quick_scenario, monke
 
 def test_law_over_the_row_cap_is_not_exported_and_costs_no_other(tmp_path, quick_scenario,
                                                                  monkeypatch) -> None:
-    import feedopt.runner as runner
+    import feedopt.outputs as outputs
 
     p = quick_scenario(path__spacing_mm=2.0, schedule__laws=["constant", "jerk"],
                        feed__nominal_mm_s=1.0, deflection__limit_mm=1.0)
@@ -120,7 +120,7 @@ def test_law_over_the_row_cap_is_not_exported_and_costs_no_other(tmp_path, quick
     rows = {law: r.trajectory.duration / 0.004 + 1 for law, r in first.laws.items()}
     longer, shorter = sorted(rows, key=rows.get, reverse=True)
     assert rows[longer] > rows[shorter]
-    monkeypatch.setattr(runner, "MAX_CONTROLLER_ROWS", 0.5 * (rows[longer] + rows[shorter]))
+    monkeypatch.setattr(outputs, "MAX_CONTROLLER_ROWS", 0.5 * (rows[longer] + rows[shorter]))
     result = run_scenario(p, out_dir=tmp_path / "out", progress=lambda _m: None, report=False)
     laws = result.summary["laws"]
     assert not laws[longer]["exported"] and not laws[longer]["exportable"]
