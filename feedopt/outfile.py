@@ -159,17 +159,7 @@ def check_output_file(
     suffix = Path(text).suffix
     if example is None:
         example = "out" + (allowed_suffixes[0] if allowed_suffixes else (suffix or ".txt"))
-    if not text.strip():
-        raise InputError(f"{what} is empty: give a file name (e.g. {what} {example})")
-    check_name(text, what)
-    try:
-        target = Path(text).resolve()
-    except (OSError, RuntimeError) as exc:  # a symbolic link loop
-        raise InputError(f"{what} {text}: cannot resolve the name ({exc}); give a plain file "
-                         "name") from None
-    if target.is_dir():
-        raise InputError(f"{what} {text} is a folder, not a file: give a file name (e.g. "
-                         f"{what} {Path(text) / example})")
+    target = _resolved_target(text, what, example)
     for inp in inputs:  # first: the one message that matters most
         if _same_file(target, Path(inp)):
             kind = "a file of the input folder" if Path(inp).is_dir() else "the input file"
@@ -182,24 +172,57 @@ def check_output_file(
             raise InputError(
                 f"{what} {text}: cannot write a file with {got}; give a name ending in one of "
                 f"{', '.join(allowed)} (e.g. {what} {example})")
-    parent = target.parent
+    _check_folder(target.parent, text, what, example)
+    _check_existing(target, text, what)
+    _probe_writable(target, text, what)
+    return target
+
+
+def _resolved_target(text: str, what: str, example: str) -> Path:
+    """The absolute target of the name ``text`` (not empty, not a folder)."""
+    if not text.strip():
+        raise InputError(f"{what} is empty: give a file name (e.g. {what} {example})")
+    check_name(text, what)
+    try:
+        target = Path(text).resolve()
+    except (OSError, RuntimeError) as exc:  # a symbolic link loop
+        raise InputError(f"{what} {text}: cannot resolve the name ({exc}); give a plain file "
+                         "name") from None
+    if target.is_dir():
+        raise InputError(f"{what} {text} is a folder, not a file: give a file name (e.g. "
+                         f"{what} {Path(text) / example})")
+    return target
+
+
+def _check_folder(parent: Path, text: str, what: str, example: str) -> None:
+    """The target's folder exists and is a folder."""
     if not parent.exists():
         raise InputError(f"{what}: directory {parent} does not exist; create it first or "
                          f"choose a file in an existing folder (e.g. {what} {example})")
     if not parent.is_dir():
-        raise InputError(f"{what} {text}: {parent} is a file, not a folder; choose a file in an "
-                         "existing folder")
-    if target.exists() or target.is_symlink():
-        try:
-            mode = target.stat().st_mode
-        except OSError as exc:
-            raise InputError(f"{what} {text}: cannot inspect it ({_reason(exc)})") from None
-        if not stat.S_ISREG(mode):
-            raise InputError(f"{what} {text} exists and is not a regular file (a device, pipe "
-                             "or socket): give the name of a file to create or replace")
-        if not os.access(target, os.W_OK):
-            raise InputError(f"{what} {text} is read-only: make it writable or choose another "
-                             "name")
+        raise InputError(f"{what} {text}: {parent} is a file, not a folder; choose a file in "
+                         "an existing folder")
+
+
+def _check_existing(target: Path, text: str, what: str) -> None:
+    """An existing target is a regular file that may be written."""
+    if not (target.exists() or target.is_symlink()):
+        return
+    try:
+        mode = target.stat().st_mode
+    except OSError as exc:
+        raise InputError(f"{what} {text}: cannot inspect it ({_reason(exc)})") from None
+    if not stat.S_ISREG(mode):
+        raise InputError(f"{what} {text} exists and is not a regular file (a device, pipe "
+                         "or socket): give the name of a file to create or replace")
+    if not os.access(target, os.W_OK):
+        raise InputError(f"{what} {text} is read-only: make it writable or choose another "
+                         "name")
+
+
+def _probe_writable(target: Path, text: str, what: str) -> None:
+    """A file can be created in the target's folder (read-only mounts, /proc, permissions)."""
+    parent = target.parent
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".feedopt-probe",
                                      dir=parent)
@@ -211,7 +234,6 @@ def check_output_file(
         os.unlink(probe)
     except OSError:
         pass
-    return target
 
 
 def _final_mode(target: Path) -> int:
