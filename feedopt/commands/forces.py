@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -105,17 +106,20 @@ def _warn(text: str) -> None:
     print(f"feedopt forces: warning: {text}", file=sys.stderr)
 
 
-def run(args: argparse.Namespace) -> int:
-    _check_outputs(args)
-    tool = load_tool(args.tool)
-    table = load_coefficients(args.coeffs)
-    rpm = _positive(args.rpm, "--rpm", "rpm")
-    if rpm > MAX_RPM:
-        raise InputError(
-            f"--rpm {rpm:g} is above {MAX_RPM:g} rpm, faster than any milling spindle; give "
-            "the spindle speed in rpm (revolutions per minute)"
-        )
-    feed = _positive(args.feed_mm_s, "--feed-mm-s", "mm/s") * MM
+@dataclass(frozen=True)
+class _Cut:
+    """The checked cut of the command line, SI units."""
+
+    rpm: float
+    feed: float  # [m/s]
+    axial_depth: float  # [m]
+    radial_depth: float  # [m]
+    step_deg: float
+    count: int  # angles over a revolution
+
+
+def _depths(args: argparse.Namespace, tool) -> tuple[float, float]:
+    """Axial and radial depth [m], within the flutes and the diameter."""
     a = _positive(args.axial_depth_mm, "--axial-depth-mm", "mm") * MM
     if a > tool.flute_length * (1 + 1e-12):
         raise InputError(
@@ -123,14 +127,26 @@ def run(args: argparse.Namespace) -> int:
             f"{tool.flute_length / MM:g} mm of tool {tool.name!r}"
         )
     if args.radial_depth_mm is None:
-        ae = tool.diameter
-    else:
-        ae = _positive(args.radial_depth_mm, "--radial-depth-mm", "mm") * MM
-        if ae > tool.diameter * (1 + 1e-12):
-            raise InputError(
-                f"--radial-depth-mm {args.radial_depth_mm:g} exceeds the tool diameter "
-                f"{tool.diameter / MM:g} mm (use the diameter for a slot)"
-            )
+        return a, tool.diameter
+    ae = _positive(args.radial_depth_mm, "--radial-depth-mm", "mm") * MM
+    if ae > tool.diameter * (1 + 1e-12):
+        raise InputError(
+            f"--radial-depth-mm {args.radial_depth_mm:g} exceeds the tool diameter "
+            f"{tool.diameter / MM:g} mm (use the diameter for a slot)"
+        )
+    return a, ae
+
+
+def _cut(args: argparse.Namespace, tool) -> _Cut:
+    """The cut of the command line, every value checked (InputError naming the option)."""
+    rpm = _positive(args.rpm, "--rpm", "rpm")
+    if rpm > MAX_RPM:
+        raise InputError(
+            f"--rpm {rpm:g} is above {MAX_RPM:g} rpm, faster than any milling spindle; give "
+            "the spindle speed in rpm (revolutions per minute)"
+        )
+    feed = _positive(args.feed_mm_s, "--feed-mm-s", "mm/s") * MM
+    a, ae = _depths(args, tool)
     if args.milling not in MILLING_MODES:
         raise InputError(f"--milling must be 'up' or 'down', got {args.milling!r}")
     step = args.step_deg
@@ -150,48 +166,72 @@ def run(args: argparse.Namespace) -> int:
             f"--axial-slices {args.axial_slices} = {size:,} slice evaluations, more than "
             f"{MAX_TABLE:,} (memory); use a larger --step-deg or fewer --axial-slices"
         )
-    c = feed_per_tooth(feed, rpm, tool.teeth)
+    return _Cut(rpm, feed, a, ae, step, count)
+
+
+def _coefficients(args: argparse.Namespace, table, cut: _Cut, tool, c: float):
+    """The coefficients at the cut's speed, with the warnings of an extrapolated speed, a
+    step that does not divide 360 deg and a feed per tooth outside the calibration."""
     radius = tool.diameter / 2
     if c >= radius:
-        feed_max = radius * rpm * tool.teeth / 60.0
+        feed_max = radius * cut.rpm * tool.teeth / 60.0
         raise InputError(
-            f"--feed-mm-s {args.feed_mm_s:g} at {rpm:g} rpm with {tool.teeth} teeth is a feed "
-            f"per tooth of {c / MM:g} mm, not below the tool radius {radius / MM:g} mm: the "
-            "chip model h = c sin(phi) does not apply (milling feeds are typically 0.01-0.5 "
-            f"mm per tooth); use a feed below {feed_max / MM:.4g} mm/s at this speed"
+            f"--feed-mm-s {args.feed_mm_s:g} at {cut.rpm:g} rpm with {tool.teeth} teeth is a "
+            f"feed per tooth of {c / MM:g} mm, not below the tool radius {radius / MM:g} mm: "
+            "the chip model h = c sin(phi) does not apply (milling feeds are typically "
+            f"0.01-0.5 mm per tooth); use a feed below {feed_max / MM:.4g} mm/s at this speed"
         )
-    coeffs = table.at(rpm, extrapolate=args.extrapolate)
-    if rpm < table.rpm[0] or rpm > table.rpm[-1]:  # only reached with --extrapolate
-        near = table.rpm[0] if rpm < table.rpm[0] else table.rpm[-1]
+    coeffs = table.at(cut.rpm, extrapolate=args.extrapolate)
+    if cut.rpm < table.rpm[0] or cut.rpm > table.rpm[-1]:  # only reached with --extrapolate
+        near = table.rpm[0] if cut.rpm < table.rpm[0] else table.rpm[-1]
         _warn(
-            f"--rpm {rpm:g} is outside the calibrated speeds ({table.rpm[0]:g}..{table.rpm[-1]:g}"
-            f" rpm); --extrapolate holds the coefficients of {near:g} rpm"
+            f"--rpm {cut.rpm:g} is outside the calibrated speeds ({table.rpm[0]:g}.."
+            f"{table.rpm[-1]:g} rpm); --extrapolate holds the coefficients of {near:g} rpm"
         )
-    if abs(count * step - 360.0) > 1e-9 * 360.0:
+    if abs(cut.count * cut.step_deg - 360.0) > 1e-9 * 360.0:
         _warn(
-            f"--step-deg {step:g} does not divide 360 deg; using {count} steps of "
-            f"{360.0 / count:.6g} deg"
+            f"--step-deg {cut.step_deg:g} does not divide 360 deg; using {cut.count} steps of "
+            f"{360.0 / cut.count:.6g} deg"
         )
     warning = feed_per_tooth_warning(table, c)
     if warning:
         _warn(warning)
+    return coeffs
 
-    eng = peripheral_engagement(np.array([ae]), tool.diameter, a, args.milling)
-    angles = np.arange(count) * (2 * math.pi / count)
+
+def run(args: argparse.Namespace) -> int:
+    _check_outputs(args)
+    tool = load_tool(args.tool)
+    table = load_coefficients(args.coeffs)
+    cut = _cut(args, tool)
+    c = feed_per_tooth(cut.feed, cut.rpm, tool.teeth)
+    coeffs = _coefficients(args, table, cut, tool, c)
+    eng = peripheral_engagement(np.array([cut.radial_depth]), tool.diameter, cut.axial_depth,
+                                args.milling)
+    angles = np.arange(cut.count) * (2 * math.pi / cut.count)
     split = milling_forces(tool, coeffs, eng, angles, axial_slices=args.axial_slices)
     f = split.forces(c)[0]
     torque = split.torque(c)[0]
-    power = split.power(c, rpm)[0]
+    power = split.power(c, cut.rpm)[0]
     fxy = np.hypot(f[:, 0], f[:, 1])
+    series = (f, fxy, torque, power)
+    _print_result(args, tool, cut, c, eng, series)
+    _write(args, angles, series, cut.count)
+    return 0
 
+
+def _print_result(args, tool, cut: _Cut, c: float, eng, series: tuple) -> None:
+    """The cut and the forces over the revolution (``series``: F, |Fxy|, torque, power)."""
+    f, fxy, torque, power = series
     print(
         f"tool {tool.name}: D {tool.diameter * MM_PER_M:g} mm, {tool.teeth} teeth, helix "
         f"{math.degrees(tool.helix):g} deg"
     )
     print(
-        f"{rpm:g} rpm, feed {feed * MM_PER_M:g} mm/s -> c = {c * MM_PER_M:.5f} mm/tooth; "
-        f"a = {a * MM_PER_M:g} mm, a_e = {ae * MM_PER_M:g} mm, {args.milling} milling: "
-        f"entry {math.degrees(eng.entry[0]):.2f} deg, exit {math.degrees(eng.exit[0]):.2f} deg"
+        f"{cut.rpm:g} rpm, feed {cut.feed * MM_PER_M:g} mm/s -> c = {c * MM_PER_M:.5f} mm/tooth;"
+        f" a = {cut.axial_depth * MM_PER_M:g} mm, a_e = {cut.radial_depth * MM_PER_M:g} mm, "
+        f"{args.milling} milling: entry {math.degrees(eng.entry[0]):.2f} deg, exit "
+        f"{math.degrees(eng.exit[0]):.2f} deg"
     )
     mean = f.mean(axis=0)
     print(f"mean force  Fx {mean[0]:9.2f} N  Fy {mean[1]:9.2f} N  Fz {mean[2]:9.2f} N")
@@ -199,6 +239,11 @@ def run(args: argparse.Namespace) -> int:
         f"peak        |Fxy| {fxy.max():8.2f} N  |F| {np.linalg.norm(f, axis=1).max():8.2f} N  "
         f"torque {torque.max():.3f} N m  power {power.max():.1f} W"
     )
+
+
+def _write(args, angles, series: tuple, count: int) -> None:
+    """--out (CSV) and --plot, both or neither written."""
+    f, fxy, torque, power = series
     files: list[tuple[str, Writer, str]] = []
     done: list[str] = []
     if args.out is not None:
@@ -213,7 +258,6 @@ def run(args: argparse.Namespace) -> int:
     write_files_atomically(files)
     for line in done:
         print(line)
-    return 0
 
 
 def _plot(path: str | Path, deg: np.ndarray, f: np.ndarray, fxy: np.ndarray, args) -> None:
