@@ -69,3 +69,11 @@ def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
                          "across the tool axis")
     return Placement(transform=transform, positions=positions, tool_axes=axis,
                      tangents=tangents, frames=feed_frames(frame_tangents, axis))
+
+
+def fixed_x_axes(placement: Placement, fix_tool_rotation: bool) -> np.ndarray | None:
+    """Prescribed tool x axes (``robot.fix_tool_rotation``: the workpiece's x along the whole
+    path) or None (5-DoF, the nearest IK chooses the rotation about the tool axis)."""
+    if not fix_tool_rotation:
+        return None
+    return np.broadcast_to(placement.transform[:3, 0], placement.positions.shape).copy()

@@ -9,7 +9,6 @@ when everything succeeded (:mod:`feedopt.outdir`).
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from contextlib import contextmanager
@@ -19,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from feedopt import background, outdir, outputs
-from feedopt.cell import Placement, place_path
+from feedopt.cell import fixed_x_axes, place_path
+from feedopt.compensate import compensate as compensate
 from feedopt.errors import InputError, LawNotApplicable
 from feedopt.geometry.path import Path as ToolPath
 from feedopt.geometry.path import PathPoints, check_sample_count
@@ -45,7 +45,8 @@ from feedopt.robot.ik import UnreachableError
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggest_workpiece_position
 from feedopt.robot.stage import RobotAlongPath, robot_along_path
-from feedopt.run_data import Compensated, Front, LawResult, Prepared, RunResult
+from feedopt.robot.start import start_joints as robot_start_joints
+from feedopt.run_data import Front, LawResult, Prepared, RunResult
 from feedopt.scenario import (
     Scenario,
     load_scenario,
@@ -146,7 +147,7 @@ def prepare(
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     _check_redundancy(robot, scenario)
-    x_axes = _x_axes(scenario, placement)
+    x_axes = fixed_x_axes(placement, scenario.robot.fix_tool_rotation)
     with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
             robot, scenario, samples):
         along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
@@ -339,106 +340,9 @@ def _check_redundancy(robot: RobotModel, scenario: Scenario) -> None:
 
 
 def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
-    """``robot.start_configuration_deg``, the controller's axis values (robot.yaml
-    ``controller.axes``), as the URDF's joints [rad]."""
-    given = scenario.robot.start_configuration_deg
-    if len(given) != robot.dof:
-        raise InputError(f"robot.start_configuration_deg has {len(given)} values; robot "
-                         f"{robot.name} has {robot.dof} joints ({', '.join(robot.joint_names)}): "
-                         "give one value per joint, in the controller's axis values")
-    q = robot.axis_convention.from_controller(given)
-    out = np.flatnonzero((q < robot.q_lower) | (q > robot.q_upper))
-    if out.size:
-        j = int(out[0])
-        unit = robot.axis_convention.unit[j]
-        name = robot.axis_convention.unit_names()[j]
-        raise InputError(
-            f"robot.start_configuration_deg: axis {j + 1} (joint {robot.joint_names[j]}) = "
-            f"{given[j]:g} {name} puts the joint at {q[j] / unit:.3f} {name} (URDF), outside its "
-            f"range [{robot.q_lower[j] / unit:.1f}, {robot.q_upper[j] / unit:.1f}] {name}")
-    return q
-
-
-def _x_axes(scenario: Scenario, placement: Placement) -> np.ndarray | None:
-    """Prescribed tool x axes (``robot.fix_tool_rotation``) or None (5-DoF, nearest)."""
-    if not scenario.robot.fix_tool_rotation:
-        return None
-    return np.broadcast_to(placement.transform[:3, 0], placement.positions.shape).copy()
-
-
-def compensate(prepared: Prepared, results: dict[str, LawResult],
-               progress: Progress = _stderr_progress) -> dict[str, LawResult]:
-    """``deflection.mode: residual``: plan each law on its compensated path.
-
-    The commanded path is ``nominal - mean deflection`` at the law's feed, a fixed point
-    (:func:`feedopt.schedule.compensation.compensation_fixed_point`) through the robot stage
-    (IK and compliance at the commanded pose), the schedule stage (residual bound) and the
-    law; the result is replayed on that compliance and checked: FK of the commanded joints
-    plus the predicted mean deflection gives the nominal path.
-    """
-    from feedopt.robot.model import forward_kinematics
-    from feedopt.schedule.compensation import check_compensation, compensation_fixed_point
-
-    sc, samples = prepared.scenario, prepared.samples
-    nominal = prepared.placement.positions
-    q_start = start_joints(prepared.robot, sc)
-    x_axes = _x_axes(sc, prepared.placement)
-    red, ik_options = prepared.redundancy, None
-    if getattr(red, "x_axes", None) is not None:  # keep the optimised psi(s)
-        x_axes, q_start = red.x_axes, red.q_start
-    if getattr(red, "ik_options", None) is not None:  # keep the held extra axis
-        ik_options, q_start = red.ik_options, red.q_start
-    out: dict[str, LawResult] = {}
-    def along_at(commanded: np.ndarray) -> RobotAlongPath:
-        return robot_along_path(prepared.robot, samples.s, commanded,
-                                prepared.placement.tool_axes, q_start, sc.robot.stiffness,
-                                x_axes=x_axes, ik_options=ik_options,
-                                breaks=interior_stop_indices(prepared.path.stops, samples.s))
-
-    for law, res in results.items():
-        t0 = time.perf_counter()
-
-        def plan(commanded: np.ndarray, law: str = law):
-            schedule = schedule_problem(sc, prepared.process, prepared.robot,
-                                        along_at(commanded), prepared.placement, samples,
-                                        prepared.path)
-            traj = plan_law(law, schedule.problem, {}, options=sc.schedule.options_for(law))
-            return traj.feed_at(samples.s), (schedule, traj)
-
-        def mean_deflection(commanded: np.ndarray, planned):
-            schedule, traj = planned
-            along = along_at(commanded)
-            model = dataclasses.replace(schedule.model, compliance=along.compliance)
-            return model.mean_deflection(traj.feed_at(samples.s)), (along, model)
-
-        path = compensation_fixed_point(nominal, plan, mean_deflection)
-        (schedule, traj), (along, model) = path.plan_state, path.pose_state
-        ver, dt = replay_all({law: traj}, schedule.problem, model, schedule.limit)[law]
-        fk = forward_kinematics(prepared.robot, along.ik.q)[:, :3, 3]
-        check = check_compensation(fk, model.mean_deflection(ver.feed), nominal)
-        problems = list(ver.problems)
-        if not path.converged:
-            problems.append(f"compensation: the offset still changed by {path.change / MM:.3g} "
-                            f"mm after {path.iterations} iterations")
-        if check.problem():
-            problems.append(check.problem())
-        notes = list(ver.warnings)
-        if path.feed_change > 0:
-            notes.append(f"compensation: the law's plan still changed its feed by "
-                         f"{path.feed_change:.2g} (relative) at its last re-plan; the exported "
-                         "plan is the last one and the pose is solved for it")
-        ver = dataclasses.replace(ver, problems=tuple(problems), warnings=tuple(notes),
-                                  verified=ver.verified and len(problems) == len(ver.problems))
-        out[law] = LawResult(trajectory=traj, verification=ver,
-                             planning_time=res.planning_time + time.perf_counter() - t0 - dt,
-                             verification_time=dt,
-                             compensation=Compensated(path, along, schedule, check))
-        progress(f"[5/5] {law}: compensated ({path.plans} plans, {path.iterations} pose "
-                 f"iterations, last change {path.change / MM:.1e} mm), offset up to "
-                 f"{check.max_offset / MM:.4f} mm, {traj.duration:.2f} s cycle, residual "
-                 f"deflection {ver.max_deflection / MM:.4f} mm, FK + mean deflection - nominal "
-                 f"{check.max_error / MM:.1e} mm, {ver.verdict.value}")
-    return out
+    """``robot.start_configuration_deg`` as the URDF's joints [rad]
+    (:func:`feedopt.robot.start.start_joints`)."""
+    return robot_start_joints(robot, scenario.robot.start_configuration_deg)
 
 
 def _plan_law_timed(law: str, problem, context: dict[str, Trajectory], options
