@@ -301,7 +301,8 @@ def choose_extra_axis(
 
 
 def _shown(robot: RobotModel, joint: int, value: float) -> float:
-    return value / MM if robot.axis_convention.prismatic[joint] else math.degrees(value)
+    """``value`` in the joint's display unit (deg, or mm for a prismatic joint)."""
+    return value / robot.axis_convention.unit[joint]
 
 
 def _confirm(robot: RobotModel, final: RedundancyTask, joint: int, value: float,

@@ -49,9 +49,7 @@ def _line(robot_dir: Path, q_deg: list[float], n: int = 41):
 def test_a_held_joint_keeps_its_value_and_the_tcp_follows_the_path(track):
     robot, q0, p, z = _line(track, TRACK_START)
     free = solve_path_ik(robot, p, z, q0)
-    q_held = q0.copy()
-    q_held[0] = 1.2  # the track 200 mm further along x
-    q_held = start_with_held(robot, p[0], z[0], q0, 0, 1.2)
+    q_held = start_with_held(robot, p[0], z[0], q0, 0, 1.2)  # the track 200 mm further
     assert q_held[0] == 1.2
     held = solve_path_ik(robot, p, z, q_held, options=IKOptions(held_joint=0))
     assert np.all(held.q[:, 0] == 1.2)  # exactly: the Newton steps never move it
