@@ -208,8 +208,9 @@ def run(args: argparse.Namespace) -> int:
              else CorrectionSpace.CARTESIAN)
     plan = plan_from_table(table, cycle_s, args.csv, space)
     check_steps(plan, settings.max_step_mm, settings.max_step_deg)
+    inputs = [args.csv] + ([args.config] if args.config else [])
     log = None if args.log is None else check_output_file(args.log, "--log", example="cycles.csv",
-                                                          inputs=[args.csv])
+                                                          inputs=inputs)
     with Streamer(settings) as streamer:
         host, port = streamer.address
         if args.realtime:

@@ -318,3 +318,15 @@ def test_bad_correction_options(corner, extra, fragment, capsys) -> None:
     assert main(["stream", str(corner), "--listen", "127.0.0.1:0", "--wait-s", "0.5",
                  *extra]) == 2
     assert fragment in capsys.readouterr().err
+
+
+def test_the_log_never_overwrites_the_ethernet_configuration(corner, tmp_path, capsys) -> None:
+    from feedopt.cli import main
+
+    config = tmp_path / "eth.xml"
+    config.write_bytes(ROS_CONFIG.read_bytes())
+    before = config.read_bytes()
+    assert main(["stream", str(corner), "--listen", "127.0.0.1:0", "--wait-s", "0.5",
+                 "--config", str(config), "--correction", "axis", "--log", str(config)]) == 2
+    assert "would destroy your input" in capsys.readouterr().err
+    assert config.read_bytes() == before
