@@ -13,10 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from feedopt.export.krl import parse_krl_spline, write_krl_program
+from feedopt.export.frames import cell_frames
+from feedopt.export.krl import KeyPoints, parse_krl_spline, write_krl_program
 from feedopt.export.rsi import RsiTable, read_rsi_csv, write_rsi_csv
-from feedopt.report.data import ReportData, law_series_from_si
+from feedopt.report.data import PathCurvesSI, ReportData, TimeCurvesSI, law_series_from_si
 from feedopt.report.html import write_report
+from feedopt.robot.model import load_robot
 
 
 def _timed(fn):
@@ -36,9 +38,9 @@ def _report_data(k: int, m: int) -> ReportData:
         feed = 4.23e-3 * f * (1 + 0.1 * np.sin(u * 3))
         t = np.linspace(0, 80 / f, m)
         laws.append(law_series_from_si(
-            law, s, feed, 0.28e-3 * (1 + 0.1 * np.cos(u)), t, np.interp(t, t[[0, -1]],
-            feed[[0, -1]]), np.sin(t) * 1e-3, np.cos(t) * 1e-2,
-            np.outer(np.sin(t), np.arange(1, 7)) * 1e-3))
+            law, PathCurvesSI(s, feed, 0.28e-3 * (1 + 0.1 * np.cos(u))),
+            TimeCurvesSI(t, np.interp(t, t[[0, -1]], feed[[0, -1]]), np.sin(t) * 1e-3,
+                         np.cos(t) * 1e-2, np.outer(np.sin(t), np.arange(1, 7)) * 1e-3)))
     summary = {"scenario": {"deflection_limit_mm": 0.29}, "laws": {
         ls.law: {"cycle_time_s": float(ls.t_s[-1]), "lower_bound_s": 60.0,
                  "max_deflection_mm": 0.3, "max_feed_mm_s": 4.6, "min_feed_mm_s": 3.0,
@@ -64,8 +66,10 @@ def main(quick: bool = False) -> dict[str, float]:
                                np.zeros((1001, 3)) + [0, 90, 0]])
         motion = ["SLIN" if i % 2 else "SPL" for i in range(1000)]
         vel = np.full(1000, 0.004)
-        out["krl_write_1000_segments"], path = _timed(
-            lambda: write_krl_program(tmp / "k.src", None, pts, motion, vel, np.zeros(6)))
+        frames = cell_frames(load_robot(Path(__file__).parents[1] / "robots" / "kuka_kr500_3"))
+        out["krl_write_1000_segments"], (path, _) = _timed(
+            lambda: write_krl_program(tmp / "k.src", None, KeyPoints(pts, motion, vel, np.zeros(6)),
+                                      frames=frames))
         out["krl_parse_1000_segments"], _ = _timed(lambda: parse_krl_spline(path.read_text()))
         k, mm = (2_000, 5_000) if quick else (20_000, 75_000)
         data = _report_data(k, mm)

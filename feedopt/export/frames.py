@@ -357,3 +357,15 @@ def entry_exit(job: ExportJob) -> EntryExit:
                      q_above_lead_in=q_in[1], q_lead_in=q_in[0], q_lead_out=q_out[0],
                      q_retract=q_out[1],
                      approach_axes_deg=job.robot.axis_convention.to_controller(q_in[1]))
+
+
+def entry_exit_or_retract(job: ExportJob) -> tuple[EntryExit | None, np.ndarray, str | None]:
+    """:func:`entry_exit` where it is reachable (None otherwise), the fallback retract of a
+    program without it (:data:`APPROACH_MM` up the tool axis at the last controller sample
+    [mm, base frame]) and why there is no entry (None when there is one)."""
+    q_end = job.q_of_s(np.array([job.samples.motion.s[-1]]))[0]
+    end = forward_kinematics(job.robot, q_end)
+    try:
+        return entry_exit(job), APPROACH_MM * end[:3, 2], None
+    except InputError as exc:
+        return None, APPROACH_MM * end[:3, 2], str(exc)

@@ -34,14 +34,15 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.frames import frames_header_lines
+from feedopt.export.frames import APPROACH_MM, frames_header_lines
 from feedopt.export.job import Exporter, ExportJob, header_notes, status_line
 from feedopt.units import MM, MM_PER_M
 
 #: Largest relative drop of a block's F below the law's feed inside the block.
 FEED_TOLERANCE = 0.02
-#: Height of the rapid approach and retract above the path ends, along the tool axis [mm].
-CLEARANCE_MM = 50.0
+#: Height of the rapid approach and retract above the path ends, along the tool axis [mm]:
+#: the robot programs' approach height (:func:`feedopt.export.frames.entry_exit`).
+CLEARANCE_MM = APPROACH_MM
 #: Feed of the plunge from the clearance height to the start [mm/s] (in air).
 PLUNGE_FEED_MM_S = 10.0
 #: Largest angle between the tool axis and the base +Z for a 3-axis program [deg].

@@ -196,16 +196,51 @@ def _check_points(pts: np.ndarray, extra: int = 0, names: Sequence[str] = ()) ->
             f"{MIN_SEGMENT_MM} mm (merge the points)")
 
 
-def _validate(name, points, motion, velocity_m_s, start_axis_deg, vel_max):
+@dataclass(frozen=True)
+class KeyPoints:
+    """The path as the program's spline block runs it.
+
+    points : (n, 6) TCP poses in the robot base frame, X, Y, Z [mm], A, B, C [deg] (KUKA
+        Z-Y'-X''): the path start, then its key points.
+    motion : ``"SLIN"`` or ``"SPL"`` for each point after the first (n - 1 values).
+    velocity_m_s : ``$VEL.CP`` [m/s] of the segment that reaches each point; n - 1 values, or n
+        values of which the first (the start point) is ignored.
+    start_axis_deg : (6,) joint angles A1..A6 [deg] of the start pose (IK of ``points[0]``).
+    """
+
+    points: np.ndarray
+    motion: Sequence[str]
+    velocity_m_s: np.ndarray
+    start_axis_deg: np.ndarray
+
+
+@dataclass(frozen=True)
+class KrlSpeeds:
+    """The program's speeds outside the spline block, and the cell's cap.
+
+    accel_cp_m_s2 : ``$ACC.CP`` [m/s^2]
+    approach_percent : PTP ``$VEL_AXIS`` / ``$ACC_AXIS`` [%]
+    approach_vel_m_s : ``$VEL.CP`` of the SLIN down to the lead-in point and of the retract
+    vel_cp_max_m_s : the cell's largest $VEL.CP (at most :data:`VEL_CP_MAX`)
+    """
+
+    accel_cp_m_s2: float = 1.0
+    approach_percent: float = 10.0
+    approach_vel_m_s: float = APPROACH_VEL_M_S
+    vel_cp_max_m_s: float = VEL_CP_MAX
+
+
+def _validate(name: str, keys: KeyPoints, vel_max: float) -> KeyPoints:
+    """``keys`` as arrays, one velocity per segment (InputError naming what is wrong)."""
     _check_name(name)
-    pts = np.asarray(points, dtype=float)
+    pts = np.asarray(keys.points, dtype=float)
     if pts.ndim != 2 or pts.shape[1] != 6 or pts.shape[0] < 2:
         raise InputError(
             f"KRL points must be an (n, 6) array [x, y, z mm, a, b, c deg] with n >= 2, "
             f"got shape {pts.shape}"
         )
     n = pts.shape[0]
-    motion = [str(m).upper() for m in motion]
+    motion = [str(m).upper() for m in keys.motion]
     if len(motion) != n - 1:
         raise InputError(
             f"KRL motion must give one of {MOTIONS} per point after the first "
@@ -214,7 +249,7 @@ def _validate(name, points, motion, velocity_m_s, start_axis_deg, vel_max):
     for i, m in enumerate(motion):
         if m not in MOTIONS:
             raise InputError(f"KRL motion of point {i + 1} is {m!r}; use one of {MOTIONS}")
-    vel = np.asarray(velocity_m_s, dtype=float).reshape(-1)
+    vel = np.asarray(keys.velocity_m_s, dtype=float).reshape(-1)
     if vel.shape[0] == n:
         vel = vel[1:]
     if vel.shape[0] != n - 1:
@@ -224,10 +259,10 @@ def _validate(name, points, motion, velocity_m_s, start_axis_deg, vel_max):
         )
     for i, v in enumerate(vel):
         _check_velocity(f"velocity to point {i + 1}", v, vel_max)
-    q0 = np.asarray(start_axis_deg, dtype=float).reshape(-1)
+    q0 = np.asarray(keys.start_axis_deg, dtype=float).reshape(-1)
     if q0.shape != (6,) or not np.isfinite(q0).all():
         raise InputError(f"KRL start_axis_deg must be 6 finite joint angles [deg], got {q0}")
-    return pts, motion, vel, q0
+    return KeyPoints(pts, motion, vel, q0)
 
 
 def _comment_lines(comments: Sequence[str]) -> list[str]:
@@ -256,82 +291,39 @@ def dat_text(name: str, frames: CellFrames, approach_axis_deg: np.ndarray,
     ]) + "\n"
 
 
-def write_krl_program(
-    path: str | Path,
-    name: str | None,
-    points: np.ndarray,
-    motion: Sequence[str],
-    velocity_m_s: np.ndarray,
-    start_axis_deg: np.ndarray,
-    comments: Sequence[str] = (),
-    *,
-    frames: CellFrames,
-    entry: EntryExit | None = None,
-    spindle: SpindleControl = SpindleControl(),
-    accel_cp_m_s2: float = 1.0,
-    approach_percent: float = 10.0,
-    approach_vel_m_s: float = APPROACH_VEL_M_S,
-    vel_cp_max_m_s: float = VEL_CP_MAX,
-) -> tuple[Path, Path]:
-    """Write the KRL ``.src`` and ``.dat`` that run ``points`` natively (module docstring).
-
-    Parameters
-    ----------
-    path : the ``.src`` to write (the ``.dat`` goes beside it); KRL requires the program name
-        to equal the file stem.
-    name : program name (``DEF name( )``); ``None`` takes the file stem.
-    points : (n, 6) TCP poses in the robot base frame, X, Y, Z [mm], A, B, C [deg] (KUKA
-        Z-Y'-X''): the path start, then its key points.
-    motion : ``"SLIN"`` or ``"SPL"`` for each point after the first (n - 1 values).
-    velocity_m_s : ``$VEL.CP`` [m/s] of the segment that reaches each point; n - 1 values, or n
-        values of which the first (the start point) is ignored.
-    start_axis_deg : (6,) joint angles A1..A6 [deg] of the start pose (IK of ``points[0]``).
-    comments : extra lines for the header comment (scenario, law, ...).
-    frames : tool, base and load data (:func:`feedopt.export.frames.cell_frames`).
-    entry : approach, lead-in, lead-out and retract; ``None``: a PTP straight to the start
-        joints and none of them (for a program that starts in the air).
-    spindle : how the spindle is switched (:class:`SpindleControl`).
-    accel_cp_m_s2 : ``$ACC.CP`` [m/s^2]; approach_percent : PTP ``$VEL_AXIS``/``$ACC_AXIS``.
-    approach_vel_m_s : ``$VEL.CP`` of the SLIN down to the lead-in point and of the retract.
-    vel_cp_max_m_s : the cell's largest $VEL.CP (at most :data:`VEL_CP_MAX`).
-
-    Returns the ``.src`` and ``.dat`` paths. Raises :class:`InputError` for an invalid name,
-    shape or value and for a violated controller limit; nothing is written then.
-    """
-    path = Path(path)
+def _checked(path: Path, name: str | None, keys: KeyPoints, entry: EntryExit | None,
+             spindle: SpindleControl, speeds: KrlSpeeds) -> tuple[str, KeyPoints]:
+    """The program name and the validated key points, or InputError for a name, shape or value
+    the controller refuses (checked before anything is written)."""
     name = path.stem if name is None else name
     if name.lower() != path.stem.lower():
         raise InputError(
             f"KRL program name {name!r} must equal the file name stem {path.stem!r} "
             "(the controller looks the program up by its file name)"
         )
-    vel_max = min(float(vel_cp_max_m_s), VEL_CP_MAX)
-    pts, motion, vel, q0 = _validate(name, points, motion, velocity_m_s, start_axis_deg,
-                                     vel_max)
+    vel_max = min(float(speeds.vel_cp_max_m_s), VEL_CP_MAX)
+    keys = _validate(name, keys, vel_max)
     spindle.check()
-    _check_velocity("approach velocity", approach_vel_m_s, vel_max)
-    if not (np.isfinite(accel_cp_m_s2) and accel_cp_m_s2 > 0):
-        raise InputError(f"$ACC.CP must be positive, got {accel_cp_m_s2!r} m/s^2")
-    if not (0 < approach_percent <= 100):
-        raise InputError(f"approach_percent must be in (0, 100], got {approach_percent!r}")
+    _check_velocity("approach velocity", speeds.approach_vel_m_s, vel_max)
+    if not (np.isfinite(speeds.accel_cp_m_s2) and speeds.accel_cp_m_s2 > 0):
+        raise InputError(f"$ACC.CP must be positive, got {speeds.accel_cp_m_s2!r} m/s^2")
+    if not (0 < speeds.approach_percent <= 100):
+        raise InputError(
+            f"approach_percent must be in (0, 100], got {speeds.approach_percent!r}")
+    pts = keys.points
     _check_points(pts, extra=0 if entry is None else 2)
-    block = pts if entry is None else np.vstack([entry.lead_in, pts, entry.lead_out])
     if entry is not None:
         _check_points(np.vstack([entry.above_lead_in, entry.lead_in, pts[0]]),
                       names=("approach down to the lead-in point", "lead-in"))
         _check_points(np.vstack([pts[-1], entry.lead_out, entry.retract]),
                       names=("lead-out", "retract"))
-    seg_motion = motion if entry is None else ["SLIN", *motion, "SLIN"]
-    seg_vel = vel if entry is None else np.concatenate([vel[:1], vel, vel[-1:]])
+    return name, keys
 
-    out = [f"DEF {name}( )", ";FOLD feedopt header",
-           "; Generated by feedopt: native KUKA spline program of the path key points "
-           f"(KRC4, KSS 8.x); data in {name}.dat.", *_comment_lines(comments), ";"]
-    out.extend(f"; {line}" for line in header_lines(frames))
-    out.append(f"; In {name}.dat: {TOOL_VAR} = the TOOL_DATA, {BASE_VAR} = the BASE_DATA, "
-               f"{LOAD_VAR} = the LOAD_DATA above, {APPROACH_VAR} = the approach joints.")
-    out.append(";")
-    out.extend(f"; {line}" for line in NATIVE_CONTROLLER_NOTE)
+
+def _summary_lines(keys: KeyPoints, entry: EntryExit | None) -> list[str]:
+    """Header comments on the block: stops between SLINs, the counts and feeds, the entry."""
+    pts, motion, vel = keys.points, keys.motion, keys.velocity_m_s
+    out = []
     n_slin_pairs = sum(
         1 for a, b in zip(motion[:-1], motion[1:], strict=True) if a == b == "SLIN"
     )
@@ -353,46 +345,118 @@ def write_krl_program(
         out.append(f"; Entry: PTP to {APPROACH_MM:g} mm above the lead-in point, SLIN down, "
                    f"SLIN lead-in of {_fmt(np.linalg.norm(pts[0, :3] - entry.lead_in[:3]), 3)} mm "
                    "to the start; exit: SLIN lead-out, SLIN retract up the tool axis.")
-    out += [";ENDFOLD", "",
-            ";FOLD INI",
-            "  ;FOLD BASISTECH INI",
-            "    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )",
-            "    INTERRUPT ON 3",
-            "    BAS (#INITMOV,0 )",
-            "  ;ENDFOLD (BASISTECH INI)",
-            ";ENDFOLD (INI)", "",
-            f";FOLD settings (tool, base and load from {name}.dat)",
-            "$BWDSTART = FALSE",
-            f"$TOOL = {TOOL_VAR}", f"$BASE = {BASE_VAR}", f"$LOAD = {LOAD_VAR}",
-            "$IPO_MODE = #BASE", "$ORI_TYPE = #VAR", "$ADVANCE = 3"]
-    out += [f"$VEL_AXIS[{i}] = {_fmt(approach_percent, 3)}" for i in range(1, 7)]
-    out += [f"$ACC_AXIS[{i}] = {_fmt(approach_percent, 3)}" for i in range(1, 7)]
-    out += [f"$VEL.CP = {_fmt_vel(approach_vel_m_s)}", "$VEL.ORI1 = 200", "$VEL.ORI2 = 200",
-            f"$ACC.CP = {_fmt(accel_cp_m_s2, 6)}", "$ACC.ORI1 = 100", "$ACC.ORI2 = 100",
-            ";ENDFOLD", ""]
+    return out
+
+
+def _header_fold(name: str, keys: KeyPoints, comments: Sequence[str], frames: CellFrames,
+                 entry: EntryExit | None) -> list[str]:
+    """``DEF`` and the header fold: what the program is, its frames, what it does not do."""
+    out = [f"DEF {name}( )", ";FOLD feedopt header",
+           "; Generated by feedopt: native KUKA spline program of the path key points "
+           f"(KRC4, KSS 8.x); data in {name}.dat.", *_comment_lines(comments), ";"]
+    out.extend(f"; {line}" for line in header_lines(frames))
+    out.append(f"; In {name}.dat: {TOOL_VAR} = the TOOL_DATA, {BASE_VAR} = the BASE_DATA, "
+               f"{LOAD_VAR} = the LOAD_DATA above, {APPROACH_VAR} = the approach joints.")
+    out.append(";")
+    out.extend(f"; {line}" for line in NATIVE_CONTROLLER_NOTE)
+    return out + _summary_lines(keys, entry) + [";ENDFOLD", ""]
+
+
+def _settings_fold(name: str, speeds: KrlSpeeds) -> list[str]:
+    """The KSS 8.x INI fold, then $TOOL / $BASE / $LOAD from the .dat and the speeds."""
+    out = [";FOLD INI",
+           "  ;FOLD BASISTECH INI",
+           "    GLOBAL INTERRUPT DECL 3 WHEN $STOPMESS==TRUE DO IR_STOPM ( )",
+           "    INTERRUPT ON 3",
+           "    BAS (#INITMOV,0 )",
+           "  ;ENDFOLD (BASISTECH INI)",
+           ";ENDFOLD (INI)", "",
+           f";FOLD settings (tool, base and load from {name}.dat)",
+           "$BWDSTART = FALSE",
+           f"$TOOL = {TOOL_VAR}", f"$BASE = {BASE_VAR}", f"$LOAD = {LOAD_VAR}",
+           "$IPO_MODE = #BASE", "$ORI_TYPE = #VAR", "$ADVANCE = 3"]
+    out += [f"$VEL_AXIS[{i}] = {_fmt(speeds.approach_percent, 3)}" for i in range(1, 7)]
+    out += [f"$ACC_AXIS[{i}] = {_fmt(speeds.approach_percent, 3)}" for i in range(1, 7)]
+    return out + [f"$VEL.CP = {_fmt_vel(speeds.approach_vel_m_s)}", "$VEL.ORI1 = 200",
+                  "$VEL.ORI2 = 200", f"$ACC.CP = {_fmt(speeds.accel_cp_m_s2, 6)}",
+                  "$ACC.ORI1 = 100", "$ACC.ORI2 = 100", ";ENDFOLD", ""]
+
+
+def _entry_lines(entry: EntryExit | None, spindle: SpindleControl, speeds: KrlSpeeds
+                 ) -> list[str]:
+    """PTP to the approach joints, spindle on, SLIN down to the lead-in point (with an entry)."""
     if entry is None:
-        out += ["; approach: joint move to the start configuration (robot stops here)",
-                f"PTP {APPROACH_VAR}", ""]
-        out += spindle.lines(on=True)
-    else:
-        out += [f"; approach: joint move to {APPROACH_MM:g} mm above the lead-in point",
-                f"PTP {APPROACH_VAR}", ""]
-        out += spindle.lines(on=True)
-        out += ["", "; down to the lead-in point (in the air)",
-                f"SLIN {_pose(entry.lead_in)} WITH $VEL.CP = {_fmt_vel(approach_vel_m_s)}"]
-    out += ["", "SPLINE"]
+        return ["; approach: joint move to the start configuration (robot stops here)",
+                f"PTP {APPROACH_VAR}", "", *spindle.lines(on=True)]
+    return [f"; approach: joint move to {APPROACH_MM:g} mm above the lead-in point",
+            f"PTP {APPROACH_VAR}", "", *spindle.lines(on=True),
+            "", "; down to the lead-in point (in the air)",
+            f"SLIN {_pose(entry.lead_in)} WITH $VEL.CP = {_fmt_vel(speeds.approach_vel_m_s)}"]
+
+
+def _spline_block(keys: KeyPoints, entry: EntryExit | None) -> list[str]:
+    """``SPLINE ... ENDSPLINE``: the lead-in, the key points and the lead-out (with an entry)."""
+    pts, motion, vel = keys.points, keys.motion, keys.velocity_m_s
+    block = pts if entry is None else np.vstack([entry.lead_in, pts, entry.lead_out])
+    seg_motion = motion if entry is None else ["SLIN", *motion, "SLIN"]
+    seg_vel = vel if entry is None else np.concatenate([vel[:1], vel, vel[-1:]])
+    out = ["", "SPLINE"]
     last = len(seg_motion)
     for k, (m, p, v) in enumerate(zip(seg_motion, block[1:], seg_vel, strict=True), start=1):
         what = ("lead-in" if entry is not None and k == 1 else
                 "lead-out" if entry is not None and k == last else
                 f"point {k - (entry is not None)}")
         out.append(f"  {m} {_pose(p)} WITH $VEL.CP = {_fmt_vel(v)} ; {what}")
-    out.append("ENDSPLINE")
+    return out + ["ENDSPLINE"]
+
+
+def _exit_lines(entry: EntryExit | None, spindle: SpindleControl, speeds: KrlSpeeds
+                ) -> list[str]:
+    """The retract up the tool axis (with an entry), spindle off, ``END``."""
+    out = []
     if entry is not None:
         out += ["", f"; retract {APPROACH_MM:g} mm up the tool axis",
-                f"SLIN {_pose(entry.retract)} WITH $VEL.CP = {_fmt_vel(approach_vel_m_s)}"]
-    out += ["", *spindle.lines(on=False), "END"]
-    approach = q0 if entry is None else entry.approach_axes_deg
+                f"SLIN {_pose(entry.retract)} WITH $VEL.CP = {_fmt_vel(speeds.approach_vel_m_s)}"]
+    return out + ["", *spindle.lines(on=False), "END"]
+
+
+def write_krl_program(
+    path: str | Path,
+    name: str | None,
+    keys: KeyPoints,
+    comments: Sequence[str] = (),
+    *,
+    frames: CellFrames,
+    entry: EntryExit | None = None,
+    spindle: SpindleControl = SpindleControl(),
+    speeds: KrlSpeeds = KrlSpeeds(),
+) -> tuple[Path, Path]:
+    """Write the KRL ``.src`` and ``.dat`` that run ``keys`` natively (module docstring).
+
+    Parameters
+    ----------
+    path : the ``.src`` to write (the ``.dat`` goes beside it); KRL requires the program name
+        to equal the file stem.
+    name : program name (``DEF name( )``); ``None`` takes the file stem.
+    keys : the path start, its key points, their motions and ``$VEL.CP`` and the start joints
+        (:class:`KeyPoints`).
+    comments : extra lines for the header comment (scenario, law, ...).
+    frames : tool, base and load data (:func:`feedopt.export.frames.cell_frames`).
+    entry : approach, lead-in, lead-out and retract; ``None``: a PTP straight to the start
+        joints and none of them (for a program that starts in the air).
+    spindle : how the spindle is switched (:class:`SpindleControl`).
+    speeds : ``$ACC.CP``, the PTP percentage, the approach ``$VEL.CP`` and the cell's largest
+        ``$VEL.CP`` (:class:`KrlSpeeds`).
+
+    Returns the ``.src`` and ``.dat`` paths. Raises :class:`InputError` for an invalid name,
+    shape or value and for a violated controller limit; nothing is written then.
+    """
+    path = Path(path)
+    name, keys = _checked(path, name, keys, entry, spindle, speeds)
+    out = [*_header_fold(name, keys, comments, frames, entry), *_settings_fold(name, speeds),
+           *_entry_lines(entry, spindle, speeds), *_spline_block(keys, entry),
+           *_exit_lines(entry, spindle, speeds)]
+    approach = keys.start_axis_deg if entry is None else entry.approach_axes_deg
     dat = dat_text(name, frames, approach, comments)
     dat_path = path.with_suffix(".dat")
     path.write_text("\n".join(out) + "\n", encoding="ascii")
@@ -494,7 +558,7 @@ def parse_krl_dat(text: str) -> dict[str, dict]:
     return out
 
 
-def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.ndarray]:
+def key_points(job: ExportJob) -> KeyPoints:
     """Key points for the native-controller program (:func:`key_arc_lengths`): their (n, 6)
     poses (mm, deg), motions, ``$VEL.CP`` [m/s] and the start joints [deg]."""
     from feedopt.robot.kuka import abc_from_rotation
@@ -504,7 +568,7 @@ def key_points(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray, np.nd
     q = job.q_of_s(s_arr)
     pose = forward_kinematics(job.robot, q)
     points = np.column_stack([pose[:, :3, 3] / MM, abc_from_rotation(pose[:, :3, :3])])
-    return points, motions, vels, job.robot.axis_convention.to_controller(q[0])
+    return KeyPoints(points, motions, vels, job.robot.axis_convention.to_controller(q[0]))
 
 
 def key_arc_lengths(job: ExportJob) -> tuple[np.ndarray, list[str], np.ndarray]:
@@ -583,9 +647,9 @@ def export_krl(job: ExportJob, out_dir: Path, spindle: SpindleControl = SpindleC
     unreachable approach) as ``krl_program: None`` and ``krl_not_written``."""
     try:
         frames = cell_frames(job.robot)
-        pts, motions, vels, q0 = key_points(job)
+        keys = key_points(job)
         entry = entry_exit(job)
-        write_krl_program(out_dir / f"{job.law}.src", None, pts, motions, vels, q0, comments=[
+        write_krl_program(out_dir / f"{job.law}.src", None, keys, comments=[
             status_line(job),
             f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with "
             "the law's feeds as $VEL.CP",

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.job import Exporter, ExportJob, header_notes, status_line
+from feedopt.export.job import ControllerSamples, Exporter, ExportJob, header_notes, status_line
 from feedopt.floattext import refuse_non_finite, write_float_rows
 from feedopt.robot.kuka import abc_from_rotation
 from feedopt.textio import read_user_text
@@ -132,24 +132,23 @@ class RsiTable:
 
 
 def rsi_table_from_si(
-    t: np.ndarray,
+    samples: ControllerSamples,
     position_m: np.ndarray,
     rotation: np.ndarray,
     q_rad: np.ndarray,
-    s_m: np.ndarray,
-    feed_m_s: np.ndarray,
-    accel: np.ndarray,
-    jerk: np.ndarray,
     deflection_m: np.ndarray,
 ) -> RsiTable:
     """Build an :class:`RsiTable` from SI arrays (s, m, rad, m/s, m/s^2, m/s^3).
 
-    ``position_m`` is (n, 3) and ``rotation`` (n, 3, 3): the TCP pose in the robot base frame.
+    ``samples`` gives t, s, feed (``motion.sdot``), acceleration (``motion.sddot``) and
+    ``jerk``; ``position_m`` is (n, 3) and ``rotation`` (n, 3, 3): the TCP pose in the robot
+    base frame.
     A, B, C come from :func:`feedopt.robot.kuka.abc_from_rotation`, then A and C are unwrapped
     along the rows (``np.unwrap`` with period 360 deg) so a tool pointing down (C near 180 deg)
     does not flip between +180 and -180 from one cycle to the next; the rotation is unchanged.
     """
-    t = np.asarray(t, dtype=float)
+    motion = samples.motion
+    t = np.asarray(motion.t, dtype=float)
     p = np.asarray(position_m, dtype=float)
     r = np.asarray(rotation, dtype=float)
     n = t.shape[0]
@@ -170,10 +169,10 @@ def rsi_table_from_si(
         b_deg=abc[:, 1],
         c_deg=abc[:, 2],
         q_deg=np.rad2deg(np.asarray(q_rad, dtype=float)),
-        s_mm=np.asarray(s_m, dtype=float) * MM_PER_M,
-        feed_mm_s=np.asarray(feed_m_s, dtype=float) * MM_PER_M,
-        accel_mm_s2=np.asarray(accel, dtype=float) * MM_PER_M,
-        jerk_mm_s3=np.asarray(jerk, dtype=float) * MM_PER_M,
+        s_mm=np.asarray(motion.s, dtype=float) * MM_PER_M,
+        feed_mm_s=np.asarray(motion.sdot, dtype=float) * MM_PER_M,
+        accel_mm_s2=np.asarray(motion.sddot, dtype=float) * MM_PER_M,
+        jerk_mm_s3=np.asarray(samples.jerk, dtype=float) * MM_PER_M,
         deflection_mm=np.asarray(deflection_m, dtype=float) * MM_PER_M,
     )
 
@@ -309,8 +308,7 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
     exact = job.path_in_base(motion.s)
     interp_error = float(np.max(np.linalg.norm(pose[:, :3, 3] - exact, axis=1)))
     deflection = np.interp(motion.s, job.problem.s, job.verification.deflection)
-    table = rsi_table_from_si(motion.t, pose[:, :3, 3], pose[:, :3, :3], q, motion.s,
-                              motion.sdot, motion.sddot, job.samples.jerk, deflection)
+    table = rsi_table_from_si(job.samples, pose[:, :3, 3], pose[:, :3, :3], q, deflection)
     axes = job.robot.axis_convention
     table = dataclasses.replace(table, q_deg=axes.to_controller(q))
     ver = job.verification

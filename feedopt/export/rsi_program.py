@@ -53,7 +53,7 @@ from feedopt.export.frames import (
     LEAD_OUT_MM,
     EntryExit,
     cell_frames,
-    entry_exit,
+    entry_exit_or_retract,
     header_lines,
 )
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
@@ -259,20 +259,6 @@ def host_program(law: str, plan: CorrectionPlan, *, entry: EntryExit | None,
     return "\n".join(out) + "\n"
 
 
-def _approach_and_retract(job: ExportJob) -> tuple[EntryExit | None, np.ndarray, str | None]:
-    """The native program's entry and exit (:func:`~feedopt.export.frames.entry_exit`), the
-    fallback retract vector at the end [mm, base frame] and why there is no entry (or
-    None)."""
-    from feedopt.robot.model import forward_kinematics
-
-    q_end = job.q_of_s(np.array([job.samples.motion.s[-1]]))[0]
-    end = forward_kinematics(job.robot, q_end)
-    try:
-        return entry_exit(job), APPROACH_MM * end[:3, 2], None
-    except InputError as exc:
-        return None, APPROACH_MM * end[:3, 2], str(exc)
-
-
 def law_plan(job: ExportJob) -> CorrectionPlan:
     """The corrections of the law's RSI CSV: its poses as the ``rsi`` exporter computes them
     (pinocchio FK of the joints at the controller samples, KUKA A, B, C), from the job rather
@@ -297,7 +283,7 @@ def export_rsi_program(job: ExportJob, out_dir: Path) -> dict:
     write_corrections_csv(out_dir / f"{name}.csv", plan, CorrectionMode.ABSOLUTE, comments=[
         status, *frame_lines,
         f"from {csv.name}; stream it with: feedopt stream {csv.name} --listen IP:PORT"])
-    entry, retract, why = _approach_and_retract(job)
+    entry, retract, why = entry_exit_or_retract(job)
     comments = (status, *frame_lines) + (() if why is None else (f"no approach pose: {why}",))
     (out_dir / f"{name}.src").write_text(
         host_program(job.law, plan, entry=entry, retract_mm=retract, comments=comments,

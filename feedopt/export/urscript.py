@@ -36,8 +36,9 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.export.frames import cell_frames, entry_exit, header_lines
+from feedopt.export.frames import APPROACH_MM, EntryExit, cell_frames, entry_exit, header_lines
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.robot.axes import AxisConvention
 from feedopt.robot.model import six_axes_only
 
 #: servoj time per set-point [s]: the CB3 real-time cycle (125 Hz), valid on e-Series too.
@@ -96,22 +97,41 @@ class UrSpindle:
                 raise InputError(f"UR spindle function {call!r}: use a URScript name")
 
 
+@dataclass(frozen=True)
+class UrEntryExit:
+    """The moves onto and off the path: UR joint values [rad] of the entry and exit poses
+    (:class:`feedopt.export.frames.EntryExit`) and the tool speed of the lead-in and of the
+    lead-out [m/s] (the law's feeds at the path ends, without its ramps)."""
+
+    q_above_lead_in: np.ndarray
+    q_lead_in: np.ndarray
+    q_lead_out: np.ndarray
+    q_retract: np.ndarray
+    lead_speed_m_s: tuple[float, float]
+
+    @classmethod
+    def of(cls, entry: EntryExit, axes: AxisConvention,
+           lead_speed_m_s: tuple[float, float]) -> UrEntryExit:
+        """``entry``'s joints as the controller's (``axes``: robot.yaml's axis convention)."""
+        return cls(q_above_lead_in=axes.to_controller_si(entry.q_above_lead_in),
+                   q_lead_in=axes.to_controller_si(entry.q_lead_in),
+                   q_lead_out=axes.to_controller_si(entry.q_lead_out),
+                   q_retract=axes.to_controller_si(entry.q_retract),
+                   lead_speed_m_s=lead_speed_m_s)
+
+
 def _joints(q: np.ndarray) -> str:
     return "[" + ", ".join(f"{v:.7f}" for v in np.asarray(q, dtype=float)) + "]"
 
 
 def urscript_text(name: str, q_setpoints: np.ndarray, *, cycle_s: float,
-                  tcp_pose: tuple[float, ...], q_above: np.ndarray, q_lead_in: np.ndarray,
-                  q_lead_out: np.ndarray, q_retract: np.ndarray,
-                  lead_speed_m_s: tuple[float, float],
+                  tcp_pose: tuple[float, ...], entry: UrEntryExit,
                   comments: tuple[str, ...] = (), spindle: UrSpindle = UrSpindle()) -> str:
     """The URScript program (see the module docstring).
 
     q_setpoints : (m, 6) joints [rad], one per ``cycle_s``, the first at the path start
     tcp_pose : ``set_tcp`` pose x, y, z [m], rotation vector [rad]
-    q_above .. q_retract : joints of the entry and exit poses [rad]
-    lead_speed_m_s : tool speed of the lead-in and of the lead-out [m/s] (the law's feeds at
-        the path ends, without its ramps)
+    entry : joints of the entry and exit poses [rad] and the lead-in / lead-out speeds
     """
     if not _NAME_RE.match(name):
         raise InputError(f"URScript program name {name!r}: use letters, digits and '_'")
@@ -125,6 +145,7 @@ def urscript_text(name: str, q_setpoints: np.ndarray, *, cycle_s: float,
     if not (0.002 <= cycle_s <= 0.1):
         raise InputError(f"URScript servoj time {cycle_s!r} s: use 0.008 (CB3 and e-Series) or "
                          "0.002 (e-Series)")
+    lead_speed_m_s = entry.lead_speed_m_s
     for v in lead_speed_m_s:
         if not (np.isfinite(v) and 0 < v <= 1.0):
             raise InputError(f"URScript lead-in/out speed {v!r} m/s: use (0, 1] m/s")
@@ -138,10 +159,11 @@ def urscript_text(name: str, q_setpoints: np.ndarray, *, cycle_s: float,
         f"  def sj(q):",  # noqa: F541 - URScript
         f"    servoj(q, 0, 0, {cycle_s:g}, {LOOKAHEAD_S:g}, {GAIN})",
         "  end",
-        "  # approach: joint move to 50 mm above the lead-in point, down, lead-in to the start",
-        f"  movej({_joints(q_above)}, a={MOVEJ_A:g}, v={MOVEJ_V:g})",
+        f"  # approach: joint move to {APPROACH_MM:g} mm above the lead-in point, down, lead-in "
+        "to the start",
+        f"  movej({_joints(entry.q_above_lead_in)}, a={MOVEJ_A:g}, v={MOVEJ_V:g})",
         *(f"  {line}" for line in spindle.lines(on=True)),
-        f"  movel({_joints(q_lead_in)}, a={MOVEL_A:g}, v={MOVEL_V:g})",
+        f"  movel({_joints(entry.q_lead_in)}, a={MOVEL_A:g}, v={MOVEL_V:g})",
         f"  movel({_joints(q[0])}, a={MOVEL_A:g}, v={lead_speed_m_s[0]:.6f})",
         f"  # the law: {q.shape[0]} set-points every {cycle_s:g} s",
     ]
@@ -154,8 +176,8 @@ def urscript_text(name: str, q_setpoints: np.ndarray, *, cycle_s: float,
         "    k = k + 1",
         "  end",
         "  stopj(2.0)",
-        f"  movel({_joints(q_lead_out)}, a={MOVEL_A:g}, v={lead_speed_m_s[1]:.6f})",
-        f"  movel({_joints(q_retract)}, a={MOVEL_A:g}, v={MOVEL_V:g})",
+        f"  movel({_joints(entry.q_lead_out)}, a={MOVEL_A:g}, v={lead_speed_m_s[1]:.6f})",
+        f"  movel({_joints(entry.q_retract)}, a={MOVEL_A:g}, v={MOVEL_V:g})",
         *(f"  {line}" for line in spindle.lines(on=False)),
         "end",
     ]
@@ -183,14 +205,10 @@ def export_urscript(job: ExportJob, out_dir: Path, cycle_s: float = CYCLE_S,
                               job.verification.exportable)
     try:
         frames = cell_frames(job.robot)
-        entry = entry_exit(job)
+        entry = UrEntryExit.of(entry_exit(job), axes, (float(target[0]), float(target[-1])))
         text = urscript_text(
-            job.law, q, cycle_s=cycle_s, tcp_pose=frames.tcp_pose_ur,
-            q_above=axes.to_controller_si(entry.q_above_lead_in),
-            q_lead_in=axes.to_controller_si(entry.q_lead_in),
-            q_lead_out=axes.to_controller_si(entry.q_lead_out),
-            q_retract=axes.to_controller_si(entry.q_retract),
-            lead_speed_m_s=(float(target[0]), float(target[-1])), spindle=spindle,
+            job.law, q, cycle_s=cycle_s, tcp_pose=frames.tcp_pose_ur, entry=entry,
+            spindle=spindle,
             comments=(status_line(job), *header_lines(frames), *header_notes(job),
                       f"servoj every {cycle_s:g} s: {job.trajectory.duration:.4f} s of cutting"))
     except InputError as exc:

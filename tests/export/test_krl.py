@@ -5,6 +5,7 @@ program never asks for a $VEL.CP above the feed bound."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import numpy as np
@@ -18,6 +19,8 @@ from feedopt.export import krl
 from feedopt.export.frames import EntryExit, cell_frames
 from feedopt.export.krl import (
     MIN_SEGMENT_MM,
+    KeyPoints,
+    KrlSpeeds,
     SpindleControl,
     parse_krl_dat,
     parse_krl_spline,
@@ -60,7 +63,10 @@ def _write(tmp_path, name="thesis", **kw):
                 start_axis_deg=[10, -80, 95, 0, 30, -5], comments=["scenario: triangle_slot"],
                 frames=FRAMES, entry=_entry(pts))
     args.update(kw)
-    return write_krl_program(tmp_path / f"{name}.src", name, **args)[0]
+    keys = KeyPoints(**{f.name: args.pop(f.name) for f in dataclasses.fields(KeyPoints)})
+    speeds = KrlSpeeds(**{f.name: args.pop(f.name) for f in dataclasses.fields(KrlSpeeds)
+                          if f.name in args})
+    return write_krl_program(tmp_path / f"{name}.src", name, keys, speeds=speeds, **args)[0]
 
 
 def _code(path):
@@ -224,10 +230,11 @@ def test_name_must_be_a_krl_identifier_and_match_the_file(tmp_path):
         _write(tmp_path, name="my-law 1")
     pts, motion, vel = _triangle_key_points()
     with pytest.raises(InputError, match="must equal the file name stem"):
-        write_krl_program(tmp_path / "a.src", "b", pts, motion, vel, np.zeros(6), frames=FRAMES)
+        write_krl_program(tmp_path / "a.src", "b", KeyPoints(pts, motion, vel, np.zeros(6)),
+                          frames=FRAMES)
     assert not (tmp_path / "a.src").exists()
-    src, dat = write_krl_program(tmp_path / "constant.src", None, pts, motion, vel, np.zeros(6),
-                                 frames=FRAMES)
+    src, dat = write_krl_program(tmp_path / "constant.src", None,
+                                 KeyPoints(pts, motion, vel, np.zeros(6)), frames=FRAMES)
     assert src.read_text().startswith("DEF constant( )")
     assert dat.name == "constant.dat" and dat.read_text().startswith("DEFDAT constant PUBLIC")
 
@@ -277,7 +284,7 @@ def test_parse_round_trip_random(tmp_path_factory, data, vel_exp, spl):
     vel = 10.0 ** np.array(vel_exp[: n - 1])
     motion = ["SPL" if b else "SLIN" for b in spl[: n - 1]]
     path = tmp_path_factory.mktemp("krl") / "rnd.src"
-    text = write_krl_program(path, None, pts, motion, vel, np.zeros(6),
+    text = write_krl_program(path, None, KeyPoints(pts, motion, vel, np.zeros(6)),
                              frames=FRAMES)[0].read_text()
     code = "\n".join(ln.split(";", 1)[0] for ln in text.splitlines())
     assert not re.search(r"\d[eE][-+]?\d", code)  # no exponent notation in KRL numbers

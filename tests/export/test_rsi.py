@@ -9,8 +9,10 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from feedopt.errors import InputError
+from feedopt.export.job import ControllerSamples
 from feedopt.export.rsi import COLUMNS, RsiTable, read_rsi_csv, rsi_table_from_si, write_rsi_csv
 from feedopt.robot.kuka import rotation_from_abc
+from feedopt.schedule.trajectory import Motion
 
 finite = st.floats(allow_nan=False, allow_infinity=False, allow_subnormal=True, width=64)
 
@@ -68,10 +70,14 @@ def test_from_si_converts_units_and_keeps_the_rotation():
     q = rng.normal(size=(n, 6))
     s = np.linspace(0, 0.1, n)
     t = np.linspace(0, 1, n)
-    tab = rsi_table_from_si(t, p, rot, q, s, s * 2, s * 3, s * 4, s * 5)
+    samples = ControllerSamples(motion=Motion(t=t, s=s, sdot=s * 2, sddot=s * 3,
+                                              sdddot=np.zeros(n)),
+                                jerk=s * 4, joint_velocity=np.zeros((n, 6)))
+    tab = rsi_table_from_si(samples, p, rot, q, s * 5)
     np.testing.assert_allclose(tab.x_mm, p[:, 0] * 1e3)
     np.testing.assert_allclose(tab.q_deg, np.degrees(q))
     np.testing.assert_allclose(tab.deflection_mm, s * 5e3)
+    np.testing.assert_allclose(tab.jerk_mm_s3, s * 4e3)  # the samples' jerk, not motion.sdddot
     abc_out = np.column_stack([tab.a_deg, tab.b_deg, tab.c_deg])
     np.testing.assert_allclose(rotation_from_abc(abc_out), rot, atol=1e-12)
     assert np.max(np.abs(np.diff(tab.a_deg))) < 20 and np.max(np.abs(np.diff(tab.c_deg))) < 20

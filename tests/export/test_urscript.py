@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from feedopt.errors import InputError
 from feedopt.export import urscript
-from feedopt.export.urscript import UrSpindle, urscript_text
+from feedopt.export.urscript import UrEntryExit, UrSpindle, urscript_text
 from feedopt.runner import run_scenario
 from tests.conftest import ROOT
 from tests.export.test_frames import ur10_flange_fk
@@ -107,8 +107,9 @@ def test_program_order_and_entry(ur_run) -> None:
 def _args(n=10, **kw):
     q = np.tile(np.deg2rad([0, -90, 90, -90, -90, 0]), (n, 1))
     q[:, 0] += np.linspace(0, 0.01, n)
-    args = dict(cycle_s=0.008, tcp_pose=(0, 0, 0.2, np.pi, 0, 0), q_above=q[0], q_lead_in=q[0],
-                q_lead_out=q[-1], q_retract=q[-1], lead_speed_m_s=(0.004, 0.004))
+    entry = UrEntryExit(q_above_lead_in=q[0], q_lead_in=q[0], q_lead_out=q[-1],
+                        q_retract=q[-1], lead_speed_m_s=kw.pop("lead_speed_m_s", (0.004, 0.004)))
+    args = dict(cycle_s=0.008, tcp_pose=(0, 0, 0.2, np.pi, 0, 0), entry=entry)
     args.update(kw)
     return q, args
 
@@ -143,8 +144,7 @@ def test_spindle_output_or_function(spindle, on, off) -> None:
     ],
 )
 def test_bad_settings_are_refused(kw, message) -> None:
-    q, args = _args()
-    args.update(kw)
+    q, args = _args(**kw)
     with pytest.raises(InputError, match=message):
         urscript_text("x", q, **args)
 
