@@ -213,7 +213,7 @@ def constant_accel_rows(problem: ScheduleProblem, grid: np.ndarray, scale: float
     Bernstein coefficients of :func:`constant_accel_bernstein` over every sample interval of
     grid interval k, per joint, over its limit (the last gridpoint, and grid intervals with
     fewer sample intervals than the longest, get zero rows)."""
-    i = np.arange(problem.n - 1)
+    i = np.arange(grid[0], grid[-1])  # the sample intervals of the grid (a window of it)
     a, b, k = constant_accel_bernstein(problem, grid, i, scale)
     limit = np.asarray(problem.joint_acceleration_max, dtype=float)
     dof = limit.size

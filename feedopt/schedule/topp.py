@@ -347,34 +347,95 @@ def _joint_acceleration_constraint(rows_a: np.ndarray, rows_b: np.ndarray):
     return _JointAcceleration()
 
 
-def _solve_toppra(problem: ScheduleProblem, s_grid: np.ndarray, constraints: list):
-    """Run TOPP-RA (seidel) on the gridpoints ``s_grid`` [m].
+#: Gridpoints per toppra instance: a longer grid is solved in windows of this many
+#: (:func:`_solve_toppra`), so that toppra's per-gridpoint arrays (about 2.5 kB per
+#: gridpoint while an instance is built) stay ~80 MB however long the path.
+TOPPRA_WINDOW = 1 << 15
+
+
+class _GridInterval:
+    """The path toppra is given: every constraint here is given per gridpoint
+    (:func:`_constraints`), so toppra only checks the gridpoints against the path's
+    interval; q(s) is never evaluated (calling it is an error)."""
+
+    def __init__(self, s_first: float, s_last: float, dof: int):
+        self.path_interval = np.array([s_first, s_last])
+        self.dof = dof
+
+    def __call__(self, path_positions, order: int = 0):
+        raise NotImplementedError("toppra evaluated q(s): a constraint needs the path")
+
+
+def _windows(n_grid: int, window: int) -> list[tuple[int, int]]:
+    """Gridpoint ranges ``(a, b)`` (both included) of at most ``window + 1`` gridpoints that
+    cover ``0 .. n_grid - 1``, neighbours sharing their boundary gridpoint."""
+    cuts = list(range(0, n_grid - 1, window)) + [n_grid - 1]
+    return list(zip(cuts[:-1], cuts[1:], strict=True))
+
+
+def _instance(problem: ScheduleProblem, grid: np.ndarray, v_node: np.ndarray, a_max: float):
+    """A TOPP-RA (seidel) instance on the gridpoints ``grid`` (sample indices) in mm."""
+    import toppra.algorithm as algo
+
+    s_mm = problem.s[grid] * MM_PER_M
+    return algo.TOPPRA(
+        _constraints(problem, grid, v_node, a_max, use_joint_limits=True),
+        _GridInterval(s_mm[0], s_mm[-1], problem.q.shape[1]), gridpoints=s_mm,
+        solver_wrapper="seidel", parametrizer="ParametrizeConstAccel")
+
+
+def _solve_toppra(problem: ScheduleProblem, grid: np.ndarray, v_node: np.ndarray,
+                  a_max: float, window: int = TOPPRA_WINDOW):
+    """TOPP-RA (seidel) on the gridpoints ``grid`` (sample indices), ``v_node`` [m/s] their
+    feed bounds.
+
+    A grid longer than ``window`` is solved in windows with toppra's own two passes: the
+    controllable sets from the last window to the first (each window's final set is the
+    first set of the window after it), then the forward pass window by window (each starts
+    where the previous ended), given the controllable sets found. That is Algorithm 1 of
+    Pham & Pham (2018) unchanged, K_i depends on K_(i+1) and x_(i+1) on x_i only, so the
+    profile is the whole grid's (up to the rounding of sdot = sqrt(x) at the window
+    boundaries), in a fraction of the memory.
 
     Returns ``(sdot [mm/s] at the gridpoints, return code name, solve time [s])``; raises
     InputError when toppra finds no parameterisation.
     """
-    import toppra.algorithm as algo
+    spans = _windows(grid.size, window)
+    sd_end = problem.v_end * MM_PER_M
+    t_solve, k_sets = 0.0, [None] * len(spans)
+    if len(spans) > 1:  # the controllable sets, last window first
+        k_end = np.array([sd_end, sd_end])
+        for w in range(len(spans) - 1, -1, -1):
+            a, b = spans[w]
+            inst = _instance(problem, grid[a:b + 1], v_node[a:b + 1], a_max)
+            t0 = time.perf_counter()
+            k_sets[w] = inst.compute_controllable_sets(*k_end)
+            t_solve += time.perf_counter() - t0
+            _check_toppra(k_sets[w], "FailUncontrollable")
+            k_end = np.sqrt(np.maximum(k_sets[w][0], 0.0))
+    sd = np.empty(grid.size)
+    sd_start, code = problem.v_start * MM_PER_M, "Ok"
+    for w, (a, b) in enumerate(spans):
+        inst = _instance(problem, grid[a:b + 1], v_node[a:b + 1], a_max)
+        if k_sets[w] is not None:  # toppra's forward pass into the sets found above
+            inst.compute_controllable_sets = lambda _lo, _hi, k=k_sets[w]: k
+        t0 = time.perf_counter()
+        _, sd_w, _ = inst.compute_parameterization(sd_start, sd_end)
+        t_solve += time.perf_counter() - t0
+        code = inst.problem_data.return_code
+        _check_toppra(sd_w, code)
+        sd[a:b + 1] = sd_w
+        sd_start = float(sd_w[-1])
+    return sd, getattr(code, "name", str(code)), t_solve
 
-    path = SampledJointPath(
-        problem, scale=MM_PER_M,
-        joint_scale=np.asarray(problem.joint_acceleration_max, dtype=float),
-    )
-    instance = algo.TOPPRA(
-        constraints, path, gridpoints=s_grid * MM_PER_M, solver_wrapper="seidel",
-        parametrizer="ParametrizeConstAccel",
-    )
-    t_solve = time.perf_counter()
-    _, sd_vec, _ = instance.compute_parameterization(
-        problem.v_start * MM_PER_M, problem.v_end * MM_PER_M
-    )
-    t_solve = time.perf_counter() - t_solve
-    code = instance.problem_data.return_code
-    if sd_vec is None or np.any(np.isnan(sd_vec)):
+
+def _check_toppra(values: np.ndarray | None, code) -> None:
+    """InputError when toppra found no parameterisation (``values`` None or NaN)."""
+    if values is None or np.any(np.isnan(values)):
         raise InputError(
             f"toppra found no feasible parameterisation ({code}): "
             "the boundary feeds, the feed bound and the acceleration limits are inconsistent"
         )
-    return np.asarray(sd_vec, dtype=float), getattr(code, "name", str(code)), t_solve
 
 
 def plan_topp(problem: ScheduleProblem, options: ToppOptions | None = None) -> Trajectory:
@@ -448,8 +509,7 @@ def _toppra_profile(
     its return code name and solve time [s]. The rounding-level excess of toppra's output
     over the gridpoint bound and the acceleration limit is clipped."""
     s_grid = problem.s[grid]
-    constraints = _constraints(problem, grid, v_node, a_max, use_joint_limits=True)
-    sd_mm, return_code, t_solve = _solve_toppra(problem, s_grid, constraints)
+    sd_mm, return_code, t_solve = _solve_toppra(problem, grid, v_node, a_max)
     x = (sd_mm / MM_PER_M) ** 2
     x = np.minimum(x, v_node**2)
     x[0], x[-1] = problem.v_start**2, problem.v_end**2

@@ -18,6 +18,7 @@ from feedopt.schedule.topp import (
     ToppMethod,
     ToppOptions,
     _feed_bound_constraint,
+    _solve_toppra,
     _toppra_profile,
     grid_bounds,
     joint_acceleration_ratio_on_grid,
@@ -26,6 +27,7 @@ from feedopt.schedule.topp import (
     sample_feed_bound,
     uniform_grid,
 )
+from feedopt.units import MM_PER_M
 from tests.schedule.conftest import wave_problem
 
 
@@ -114,3 +116,21 @@ def test_an_end_feed_that_cannot_be_reached_is_an_input_error():
     problem = wave_problem(3001, accel_max=1e-5, v_end=2.75e-3)
     with pytest.raises(InputError, match="no feasible parameterisation"):
         plan_topp(problem)
+
+
+@pytest.mark.parametrize("window", [97, 500, 1999])
+def test_toppra_in_windows_is_toppra_on_the_whole_grid(window):
+    """The windowed passes (controllable sets last window first, then the forward pass
+    window by window) give the profile of one toppra instance on the whole grid, where the
+    joint acceleration limits bind (the grid of 2001 in 21, 5 and 2 windows, the last
+    short)."""
+    problem = wave_problem(2001, joint_acceleration_max=np.full(6, 3.0e-3))
+    grid = uniform_grid(problem.n, None)
+    _, v_node = grid_bounds(sample_feed_bound(problem), grid)
+    whole, code, _ = _solve_toppra(problem, grid, v_node, problem.accel_max, window=grid.size)
+    assert code == "Ok"
+    parts, code, _ = _solve_toppra(problem, grid, v_node, problem.accel_max, window=window)
+    assert code == "Ok"
+    np.testing.assert_allclose(parts, whole, rtol=1e-9, atol=1e-12)
+    # the joint limits bind: the profile is below the feed bound somewhere
+    assert np.any(whole < 0.999 * v_node * MM_PER_M)
