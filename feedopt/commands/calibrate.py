@@ -28,6 +28,7 @@ from feedopt.units import MM
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "calibrate",
+        epilog="docs: docs/calibration.md",
         help="fit cutting coefficients to average slotting forces",
         description=(
             "Linear regression of full-immersion slotting forces on feed per tooth, per spindle "

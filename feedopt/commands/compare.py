@@ -10,6 +10,7 @@ def add_parser(subparsers) -> None:
     """Register ``feedopt compare``."""
     p = subparsers.add_parser(
         "compare",
+        epilog="docs: docs/running.md",
         help="print the comparison table of several runs",
         description=(
             "Read DIR/summary.json of each run directory written by `feedopt run` and print "

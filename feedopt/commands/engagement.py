@@ -33,6 +33,7 @@ PIECES_HEADER = "sample,s_mm,entry_deg,exit_deg,axial_depth_mm"
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "engagement",
+        epilog="docs: docs/stock.md",
         help="engagement of every path sample from the scenario's stock (CSV, plot)",
         description="Sweep the scenario's tool along its path through its stock (Z-map) and "
         "write the engagement per sample: " + HEADER)

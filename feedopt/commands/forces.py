@@ -33,6 +33,7 @@ MAX_TABLE = 2_000_000
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "forces",
+        epilog="docs: docs/calibration.md",
         help="simulate milling forces, torque and power over one cutter revolution",
         description=(
             "Static mechanistic milling force model (thesis Algorithm 1, with axial force). "

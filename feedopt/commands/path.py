@@ -44,6 +44,7 @@ def _dest(size_name: str) -> str:
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "path",
+        epilog="docs: docs/gcode.md",
         help="build a path (lines + corner blends) from waypoints and check its continuity",
         description=(
             "Linear interpolation with a blend at every corner (thesis 3.3). Writes the path "

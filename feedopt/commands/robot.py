@@ -39,6 +39,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``robot`` subcommand."""
     p = subparsers.add_parser(
         "robot",
+        epilog="docs: docs/robot.md",
         help="TCP pose, translational stiffness and deflection of a robot at one configuration",
         description=(
             "Print the TCP pose (KUKA X, Y, Z in mm, A, B, C in deg; TCP +z along the tool into "

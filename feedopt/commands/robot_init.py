@@ -20,6 +20,7 @@ from feedopt.robot.robot_file import CONTROLLERS
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "robot-init",
+        epilog="docs: docs/robot.md",
         help="write a robot directory from a URDF (also: feedopt robot init URDF --out DIR)",
         description="Read URDF (a serial arm), find its flange and which way it points out of "
         "the flange (a CAD offset of the flange frame from the last joint's axis up to 1 mm "

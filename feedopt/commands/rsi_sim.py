@@ -18,6 +18,7 @@ EXIT_TIMEOUT = 3
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "rsi-sim",
+        epilog="docs: docs/controllers.md",
         help="simulated KUKA RSI controller: packets every cycle, corrections applied to a "
         "plant with a static offset and a lag",
         description=(

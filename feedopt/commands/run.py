@@ -12,6 +12,7 @@ from feedopt.schedule.laws import LAWS
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "run",
+        epilog="docs: docs/running.md",
         help="plan, verify, export and report a scenario",
         description="Run every stage on SCENARIO.yaml and write, per timing law, the RSI CSV "
         "(only for verified laws unless --export-unverified), KRL programs for the thesis "
@@ -72,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 #: ``feedopt run`` exit code when some laws failed their own verification while others were
-#: verified and exported: the outputs are usable, the failures are real (README, exit codes).
+#: verified and exported: the outputs are usable, the failures are real (docs/running.md, exit codes).
 PARTIAL = 3
 
 

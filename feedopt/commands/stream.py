@@ -15,6 +15,7 @@ EXIT_STOPPED_EARLY = 3
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "stream",
+        epilog="docs: docs/controllers.md",
         help="stream a trajectory CSV to a KUKA controller as RSI corrections (UDP server)",
         description=(
             "Listen for the controller's RSI Ethernet packets (<Rob> XML, one per 4 ms cycle) "

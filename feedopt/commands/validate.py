@@ -21,6 +21,7 @@ REFERENCE_SUFFIXES = (".md", ".txt", ".markdown")
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "validate",
+        epilog="docs: docs/scenario-files.md (robot directories: docs/robot.md)",
         help="check a scenario file (schema, referenced files, path geometry)",
         description="Validate SCENARIO.yaml: schema and units, that every referenced file "
         "exists and loads, and that the path can be built (waypoints, blends that fit). "

@@ -201,6 +201,6 @@ def robot_reference() -> str:
     """A Markdown reference of every robot.yaml field, generated from the schema."""
     out = ["# robot.yaml reference", "",
            "Generated from `feedopt/robot/robot_file.py` (`feedopt validate --robot-schema`).",
-           "A robot directory holds a URDF and this file; see the README, 'Your own robot'.", ""]
+           "A robot directory holds a URDF and this file; see docs/robot.md.", ""]
     out += schema.reference_lines(RobotFile)
     return "\n".join(out) + "\n"
