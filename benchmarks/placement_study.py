@@ -23,7 +23,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from feedopt.sweep import run_sweep  # noqa: E402
+from feedopt.sweep import Execution, SweepSettings, run_sweep  # noqa: E402
 
 GRID = "workpiece.position_mm=x:1600;1750;1900,y:-300;-38.1;250,z:500;800;1100"
 THESIS_RATIO = 4.02 / 2.75  # down / up line feeds of the thesis
@@ -59,10 +59,11 @@ def main() -> None:
     parser.add_argument("--scheduler", help="a running Dask scheduler (tcp://host:8786)")
     parser.add_argument("--out", default=str(ROOT / "out" / "placement_study"))
     args = parser.parse_args()
-    result = run_sweep(ROOT / "scenarios" / "triangle_slot.yaml", [GRID], out_dir=args.out,
-                       laws=["thesis"], spacing_mm=1.0, scheduler=args.scheduler,
-                       workers=args.workers,
-                       extra=[("up_feed_mm_s", up_feed), ("down_feed_mm_s", down_feed)])
+    result = run_sweep(
+        ROOT / "scenarios" / "triangle_slot.yaml", [GRID], out_dir=args.out,
+        settings=SweepSettings(laws=["thesis"], spacing_mm=1.0,
+                               extra=[("up_feed_mm_s", up_feed), ("down_feed_mm_s", down_feed)]),
+        execution=Execution(scheduler=args.scheduler, workers=args.workers))
     names = [a.name for a in result.grid.axes]
     print(f"{'x_mm':>7} {'y_mm':>7} {'z_mm':>6} {'const defl mm':>13} {'up mm/s':>8} "
           f"{'down mm/s':>9} {'down/up':>7} {'T* s':>7} {'max cond':>8}")

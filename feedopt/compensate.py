@@ -12,7 +12,7 @@ import numpy as np
 from feedopt.cell import fixed_x_axes
 from feedopt.profiling import Progress, stderr_progress
 from feedopt.robot.model import forward_kinematics
-from feedopt.robot.stage import RobotAlongPath, robot_along_path
+from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
 from feedopt.robot.start import start_joints
 from feedopt.run_data import Compensated, LawResult, Prepared
 from feedopt.schedule.compensation import check_compensation, compensation_fixed_point
@@ -46,10 +46,10 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
     out: dict[str, LawResult] = {}
 
     def along_at(commanded: np.ndarray) -> RobotAlongPath:
-        return robot_along_path(prepared.robot, samples.s, commanded,
-                                prepared.placement.tool_axes, q_start, sc.robot.stiffness,
-                                x_axes=x_axes, ik_options=ik_options,
-                                breaks=interior_stop_indices(prepared.path.stops, samples.s))
+        path = TcpPath(samples.s, commanded, prepared.placement.tool_axes, x_axes=x_axes,
+                       breaks=interior_stop_indices(prepared.path.stops, samples.s))
+        return robot_along_path(prepared.robot, path, q_start, sc.robot.stiffness,
+                                ik_options=ik_options)
 
     for law, res in results.items():
         t0 = time.perf_counter()

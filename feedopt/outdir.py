@@ -75,6 +75,16 @@ def _own_files(folder: Path) -> set[str] | None:
     return set(files)
 
 
+def write_marker(folder: Path, files: Iterable[str]) -> None:
+    """Write ``folder``'s :data:`MARKER` (atomically): the feedopt version and the sorted
+    names of ``files``, every file feedopt wrote there. The one marker of every output folder:
+    a run's (:func:`commit`) and a sweep's (:mod:`feedopt.sweep.folder`)."""
+    from feedopt.outfile import write_atomically
+
+    write_atomically(folder / MARKER, json.dumps(
+        {"feedopt": __version__, "files": sorted(files)}, indent=1) + "\n")
+
+
 def foreign_entries(folder: Path) -> list[str]:
     """Entries of ``folder`` that no feedopt run recorded writing (empty list: all ours)."""
     own = _own_files(folder)
@@ -243,8 +253,7 @@ def commit(dest: Destination) -> Path:
     staging, out = dest.staging, dest.out
     (staging / STAGING_MARKER).unlink()
     written = sorted(p.name for p in staging.iterdir())
-    (staging / MARKER).write_text(json.dumps(
-        {"feedopt": __version__, "files": written}, indent=1) + "\n", encoding="utf-8")
+    write_marker(staging, written)
     if dest.kind is DestinationKind.NEW:
         staging.rename(out)
     elif dest.kind is DestinationKind.EMPTY:

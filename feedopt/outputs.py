@@ -128,7 +128,7 @@ def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list
                   drawing: background.Prestarted | None) -> background.Prestarted:
     """The report drawn in a child: the prestarted one (its plotting imports done) for a
     short path, else a fork now that shares the data instead of sending a copy."""
-    from feedopt.report.run import write_run_report
+    from feedopt.report.run import ExtraFigures, ReportPath, write_run_report
 
     sc, problem = prepared.scenario, prepared.problem
     material = prepared.process.material
@@ -136,9 +136,10 @@ def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list
     red = (None if prepared.redundancy is None
            else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
                                   prepared.placement))
-    draw = partial(write_run_report, out_dir, sc.name, summary, prepared.positions,
-                   prepared.samples.segment, problem, series, sc.deflection.limit_mm,
-                   engagement, red, prepared.robot.axis_convention.unit)
+    path = ReportPath(prepared.positions, prepared.samples.segment, problem,
+                      prepared.robot.axis_convention.unit)
+    draw = partial(write_run_report, out_dir, sc.name, summary, path, series,
+                   sc.deflection.limit_mm, ExtraFigures(engagement, red))
     if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
         drawing.submit(draw.func, *draw.args)  # the child has imported matplotlib
         return drawing

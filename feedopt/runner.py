@@ -44,7 +44,7 @@ from feedopt.profiling import stderr_progress as _stderr_progress
 from feedopt.robot.ik import UnreachableError
 from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggest_workpiece_position
-from feedopt.robot.stage import RobotAlongPath, robot_along_path
+from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
 from feedopt.robot.start import start_joints as robot_start_joints
 from feedopt.run_data import Front, LawResult, Prepared, RunResult
 from feedopt.scenario import (
@@ -150,10 +150,10 @@ def prepare(
     x_axes = fixed_x_axes(placement, scenario.robot.fix_tool_rotation)
     with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
             robot, scenario, samples):
-        along = robot_along_path(robot, samples.s, placement.positions, placement.tool_axes,
-                                 start_joints(robot, scenario),
-                                 scenario.robot.stiffness, x_axes=x_axes, progress=bar,
-                                 breaks=interior_stop_indices(path.stops, samples.s))
+        tcp = TcpPath(samples.s, placement.positions, placement.tool_axes, x_axes=x_axes,
+                      breaks=interior_stop_indices(path.stops, samples.s))
+        along = robot_along_path(robot, tcp, start_joints(robot, scenario),
+                                 scenario.robot.stiffness, progress=bar)
     warnings += along.warnings
     blockers = early_blockers(robot, path)
     times["robot"] = time.perf_counter() - t0
@@ -224,8 +224,10 @@ def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
     opts = sc.robot.redundancy_options
     coarse = prepare_front(sc, base_dir, lambda _m: None, spacing_mm=opts.search_spacing_mm)
     q_start = start_joints(robot, sc)
-    coarse_nearest = robot_along_path(robot, coarse.samples.s, coarse.placement.positions,
-                                      coarse.placement.tool_axes, q_start, sc.robot.stiffness)
+    coarse_nearest = robot_along_path(robot, TcpPath(coarse.samples.s,
+                                                     coarse.placement.positions,
+                                                     coarse.placement.tool_axes),
+                                      q_start, sc.robot.stiffness)
 
     def task(f: Front, along: RobotAlongPath) -> RedundancyTask:
         return RedundancyTask(

@@ -31,6 +31,8 @@ from feedopt.robot.identification import (
     LoadPlan,
     LoadTests,
     Method,
+    PlanLoads,
+    PoseCandidates,
     StiffnessIdentification,
     WarningKind,
     identify,
@@ -66,6 +68,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     """Register the ``calibrate-stiffness`` subcommand."""
     p = subparsers.add_parser(
         "calibrate-stiffness",
+        epilog="docs: docs/calibration.md",
         help="identify joint stiffness from static load tests, or plan the tests",
         description=(
             "Identify the six joint stiffnesses (thesis 3.4) by linear least squares in the "
@@ -391,8 +394,8 @@ def _suggest(args: argparse.Namespace) -> int:
     seed = 0 if args.seed is None else args.seed
     rotations = not args.translations_only
     plan = suggest_poses(
-        robot, args.suggest, load=load, lever=lever_mm * MM, rotations=rotations,
-        n_candidates=2000 if args.candidates is None else args.candidates, seed=seed)
+        robot, args.suggest, PlanLoads(load=load, lever=lever_mm * MM, rotations=rotations),
+        PoseCandidates(count=2000 if args.candidates is None else args.candidates, seed=seed))
     measured = "TCP displacement and rotation" if rotations else "TCP displacement"
     print(f"robot: {robot.name}   {len(plan.q)} poses chosen from {plan.candidates} random "
           f"non-singular candidates (seed {seed})")

@@ -73,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 #: ``feedopt run`` exit code when some laws failed their own verification while others were
-#: verified and exported: the outputs are usable, the failures are real (docs/running.md, exit codes).
+#: verified and exported: the outputs are usable, the failures are real (docs/running.md,
+#: exit codes).
 PARTIAL = 3
 
 

@@ -15,6 +15,7 @@ CLUSTER_LOST_EXIT = 3
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "sweep",
+        epilog="docs: docs/sweeps.md",
         help="plan a scenario over a grid of placements or other numeric fields (Dask)",
         description="Plan and verify SCENARIO.yaml at every point of a grid of numeric fields "
         "(no exports) on a local Dask cluster or a running one, and write one table row per "
@@ -89,18 +90,20 @@ def _note_workers(workers: int | None, scheduler: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from feedopt.commands.run import parse_laws
-    from feedopt.sweep import SweepInterrupted, run_sweep
+    from feedopt.sweep import Execution, SweepInterrupted, SweepSettings, run_sweep
 
     if args.spacing_mm is not None and not args.spacing_mm > 0:
         raise InputError(f"--spacing-mm must be positive, got {args.spacing_mm}")
     if args.workers is not None and args.workers >= 0:
         _note_workers(args.workers, args.scheduler)
     try:
-        result = run_sweep(args.scenario, args.grid, out_dir=args.out,
-                           laws=parse_laws(args.laws), objective=args.objective,
-                           spacing_mm=args.spacing_mm, scheduler=args.scheduler,
-                           workers=args.workers, restart=args.restart,
-                           progress=False if args.no_progress else None)
+        result = run_sweep(
+            args.scenario, args.grid, out_dir=args.out,
+            settings=SweepSettings(laws=parse_laws(args.laws), objective=args.objective,
+                                   spacing_mm=args.spacing_mm),
+            execution=Execution(scheduler=args.scheduler, workers=args.workers,
+                                progress=False if args.no_progress else None),
+            restart=args.restart)
     except SweepInterrupted as exc:
         return _stopped(exc)
     c = result.counts

@@ -11,38 +11,42 @@ below R and refuses below R/2.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.units import MM
 
+if TYPE_CHECKING:
+    from feedopt.geometry.path import PathPoints
+
 #: Below this fraction of the cutter radius the straight-cut engagement model is refused.
 REFUSE_BELOW = 0.5
 
 
-def check_path_radius(s: np.ndarray, curvature: np.ndarray, segment: np.ndarray,
-                      segment_names: list[str], tool_radius: float,
+def check_path_radius(points: PathPoints, segment_names: list[str], tool_radius: float,
                       cutting: np.ndarray | None = None,
-                      tool_axis: np.ndarray | None = None,
-                      tangent: np.ndarray | None = None, refuse: bool = True) -> list[str]:
+                      tool_axis: np.ndarray | None = None, refuse: bool = True) -> list[str]:
     """Warnings for path radii below the cutter radius; InputError below ``REFUSE_BELOW`` R.
 
     Parameters
     ----------
-    s : (n,) arc length [m]; curvature : (n, 3) curvature vector [1/m]
-    segment : (n,) segment index of each sample; segment_names : a readable name per segment
+    points : the sampled path: arc length ``s`` [m], unit ``tangent``, ``curvature`` vector
+        [1/m] and ``segment`` index of each sample
+    segment_names : a readable name per segment
     tool_radius : cutter radius R [m]
     cutting : (n,) samples where the tool cuts (default: all); the others are not checked
     tool_axis : (3,) tool axis: then the radius is that of the path projected on the plane
         across the axis, |T_h x K_h| / |T_h|^3 (T_h, K_h the projected tangent and curvature
         vector), the turn the cutter sees; a path bending up out of the cut (a retract) does
-        not turn there. Needs ``tangent``.
-    tangent : (n, 3) unit tangents, with ``tool_axis``
+        not turn there.
     refuse : False (a G-code program, whose sharp corners are the programmer's): warn below
         R/2 as well instead of refusing
     """
-    curvature = np.asarray(curvature, dtype=float)
-    if tool_axis is not None and tangent is not None:
+    s, segment, tangent = points.s, points.segment, points.tangent
+    curvature = np.asarray(points.curvature, dtype=float)
+    if tool_axis is not None:
         axis = np.asarray(tool_axis, dtype=float) / np.linalg.norm(tool_axis)
         th = tangent - np.outer(tangent @ axis, axis)
         kh = curvature - np.outer(curvature @ axis, axis)

@@ -173,10 +173,10 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                                         scenario.path.stock_top_mm * MM, tool, source)
     engagement, unmodelled, plunge_notes = unmodelled_plunges(
         engagement, coefficients, moves, samples, scenario.material)
-    warnings = check_path_radius(samples.s, samples.curvature, samples.segment, segment_names,
-                                 0.5 * tool.diameter, cutting=engagement.exit > engagement.entry,
+    warnings = check_path_radius(samples, segment_names, 0.5 * tool.diameter,
+                                 cutting=engagement.exit > engagement.entry,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis),
-                                 tangent=samples.tangent, refuse=moves is None)
+                                 refuse=moves is None)
     feeds = [("feed.nominal_mm_s", feed.nominal_mm_s * MM)]
     if feed.max_mm_s is not None:
         feeds.append(("feed.max_mm_s", feed.max_mm_s * MM))

@@ -11,7 +11,9 @@ import importlib
 
 _WHERE = {
     "LawSeries": "feedopt.report.data",
+    "PathCurvesSI": "feedopt.report.data",
     "ReportData": "feedopt.report.data",
+    "TimeCurvesSI": "feedopt.report.data",
     "law_series_from_si": "feedopt.report.data",
     "load_summary": "feedopt.report.data",
     "write_report": "feedopt.report.html",

@@ -108,30 +108,46 @@ class LawSeries:
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
 
+@dataclass(frozen=True)
+class PathCurvesSI:
+    """One law's curves on the path samples (k,), SI: arc length [m], feed [m/s] and the
+    deflection predicted at that feed [m]."""
+
+    s_m: np.ndarray
+    feed_m_s: np.ndarray
+    deflection_m: np.ndarray
+
+
+@dataclass(frozen=True)
+class TimeCurvesSI:
+    """One law's curves in time (m,), SI: time [s], feed [m/s], tangential acceleration
+    [m/s^2] and jerk [m/s^3], joint velocities (m, joints) [rad/s]."""
+
+    t_s: np.ndarray
+    feed_m_s: np.ndarray
+    accel_m_s2: np.ndarray
+    jerk_m_s3: np.ndarray
+    joint_velocity_rad_s: np.ndarray
+
+
 def law_series_from_si(
     law: str,
-    s_m: np.ndarray,
-    feed_m_s: np.ndarray,
-    deflection_m: np.ndarray,
-    t: np.ndarray,
-    feed_t_m_s: np.ndarray,
-    accel: np.ndarray,
-    jerk: np.ndarray,
-    joint_velocity_rad_s: np.ndarray,
+    path: PathCurvesSI,
+    timed: TimeCurvesSI,
     verified: bool = True,
     notes: Sequence[str] = (),
 ) -> LawSeries:
-    """:class:`LawSeries` from SI arrays (m, m/s, m/s^2, m/s^3, rad/s); converts to mm, deg."""
+    """:class:`LawSeries` from SI curves (m, m/s, m/s^2, m/s^3, rad/s); converts to mm, deg."""
     return LawSeries(
         law=law,
-        s_mm=np.asarray(s_m, dtype=float) * MM_PER_M,
-        feed_mm_s=np.asarray(feed_m_s, dtype=float) * MM_PER_M,
-        deflection_mm=np.asarray(deflection_m, dtype=float) * MM_PER_M,
-        t_s=np.asarray(t, dtype=float),
-        feed_t_mm_s=np.asarray(feed_t_m_s, dtype=float) * MM_PER_M,
-        accel_mm_s2=np.asarray(accel, dtype=float) * MM_PER_M,
-        jerk_mm_s3=np.asarray(jerk, dtype=float) * MM_PER_M,
-        joint_velocity_deg_s=np.rad2deg(np.asarray(joint_velocity_rad_s, dtype=float)),
+        s_mm=np.asarray(path.s_m, dtype=float) * MM_PER_M,
+        feed_mm_s=np.asarray(path.feed_m_s, dtype=float) * MM_PER_M,
+        deflection_mm=np.asarray(path.deflection_m, dtype=float) * MM_PER_M,
+        t_s=np.asarray(timed.t_s, dtype=float),
+        feed_t_mm_s=np.asarray(timed.feed_m_s, dtype=float) * MM_PER_M,
+        accel_mm_s2=np.asarray(timed.accel_m_s2, dtype=float) * MM_PER_M,
+        jerk_mm_s3=np.asarray(timed.jerk_m_s3, dtype=float) * MM_PER_M,
+        joint_velocity_deg_s=np.rad2deg(np.asarray(timed.joint_velocity_rad_s, dtype=float)),
         verified=bool(verified),
         notes=tuple(notes),
     )

@@ -67,24 +67,36 @@ def _plot(ax, x: np.ndarray, y: np.ndarray, **kw):
     return ax.plot(x[i], y[i], **kw)
 
 
-def _new_figure(
-    width: float, height: float, nrows: int = 1, ncols: int = 1, *, left: float = 0.85,
-    right: float = 0.2, bottom: float = 0.55, top: float = 0.4, hgap: float = 0.6,
-    wgap: float = 0.85,
-) -> Figure:
-    """A figure whose subplot grid (``nrows`` x ``ncols``) has fixed margins and gaps [inch]
-    that fit the tick labels, axis labels and titles drawn here.
+@dataclass(frozen=True)
+class Margins:
+    """Margins of a figure's subplot grid and the gaps between its axes [inch]: room for
+    the tick labels, axis labels and titles drawn here."""
+
+    left: float = 0.85
+    right: float = 0.2
+    bottom: float = 0.55
+    top: float = 0.4
+    hgap: float = 0.6
+    wgap: float = 0.85
+
+
+def _new_figure(width: float, height: float, nrows: int = 1, ncols: int = 1,
+                margins: Margins | None = None) -> Figure:
+    """A figure whose subplot grid (``nrows`` x ``ncols``) has fixed ``margins`` [inch]
+    (default :class:`Margins`).
 
     Fixed margins instead of matplotlib's constrained layout, which measures every text in
     extra draw passes and took a third of the report's time (0.6 of 1.6 s in the default
     run) for the same placement to a few pixels.
     """
+    m = Margins() if margins is None else margins
     fig = Figure(figsize=(width, height), dpi=_DPI)
     FigureCanvasAgg(fig)
-    axes_w = (width - left - right - (ncols - 1) * wgap) / ncols
-    axes_h = (height - bottom - top - (nrows - 1) * hgap) / nrows
-    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height,
-                        top=1 - top / height, wspace=wgap / axes_w, hspace=hgap / axes_h)
+    axes_w = (width - m.left - m.right - (ncols - 1) * m.wgap) / ncols
+    axes_h = (height - m.bottom - m.top - (nrows - 1) * m.hgap) / nrows
+    fig.subplots_adjust(left=m.left / width, right=1 - m.right / width,
+                        bottom=m.bottom / height, top=1 - m.top / height,
+                        wspace=m.wgap / axes_w, hspace=m.hgap / axes_h)
     return fig
 
 
@@ -157,7 +169,8 @@ def plot_path_feed(data: ReportData) -> Figure:
     n = len(data.laws)
     ncols = min(n, 2)
     nrows = -(-n // ncols)
-    fig = _new_figure(6.0 * ncols, 3.6 * nrows, nrows, ncols, right=0.1, hgap=0.9, wgap=0.95)
+    fig = _new_figure(6.0 * ncols, 3.6 * nrows, nrows, ncols,
+                      Margins(right=0.1, hgap=0.9, wgap=0.95))
     axes = np.atleast_1d(fig.subplots(nrows, ncols, squeeze=False)).ravel()
     feeds = np.concatenate([ls.feed_mm_s for ls in data.laws])
     norm = Normalize(vmin=float(np.min(feeds)), vmax=float(np.max(feeds)))
@@ -195,7 +208,7 @@ def plot_deflection(data: ReportData) -> Figure:
     const = _baseline(data)
     others = [ls for ls in data.laws if ls is not const] or [const]
     n = len(others)
-    fig = _new_figure(8.0, 2.4 * n + 0.6, n, 1, top=0.15, hgap=0.15)
+    fig = _new_figure(8.0, 2.4 * n + 0.6, n, 1, Margins(top=0.15, hgap=0.15))
     axes = np.atleast_1d(fig.subplots(n, 1, sharex=True, squeeze=False)).ravel()
     for k, (ax, ls) in enumerate(zip(axes, others, strict=True)):
         if const is not None and ls is not const:
@@ -214,7 +227,7 @@ def plot_deflection(data: ReportData) -> Figure:
 
 def plot_feed(data: ReportData) -> Figure:
     """Feed vs arc length and vs time, every law (Fig. 3.19/4.5)."""
-    fig = _new_figure(8.0, 6.0, 2, 1, top=0.15)
+    fig = _new_figure(8.0, 6.0, 2, 1, Margins(top=0.15))
     ax_s, ax_t = fig.subplots(2, 1)
     for k, ls in enumerate(data.laws):
         c = law_color(ls.law, k)
@@ -232,7 +245,7 @@ def plot_feed(data: ReportData) -> Figure:
 
 def plot_accel_jerk(data: ReportData) -> Figure:
     """Tangential acceleration and jerk vs time, every law."""
-    fig = _new_figure(8.0, 6.0, 2, 1, left=1.0, top=0.15, hgap=0.15)
+    fig = _new_figure(8.0, 6.0, 2, 1, Margins(left=1.0, top=0.15, hgap=0.15))
     ax_a, ax_j = fig.subplots(2, 1, sharex=True)
     for k, ls in enumerate(data.laws):
         c = law_color(ls.law, k)
@@ -251,7 +264,7 @@ def plot_joint_velocity(data: ReportData) -> Figure:
     """Joint velocities vs time against their limits, one panel per joint."""
     joints = data.joint_velocity_limit_deg_s.size
     rows = max(1, -(-joints // 3))
-    fig = _new_figure(11.0, 2.75 * rows, rows, 3, top=0.4, hgap=0.65, wgap=0.8)
+    fig = _new_figure(11.0, 2.75 * rows, rows, 3, Margins(top=0.4, hgap=0.65, wgap=0.8))
     axes = fig.subplots(rows, 3, sharex=True, squeeze=False).ravel()
     for ax in axes[joints:]:
         ax.set_visible(False)
@@ -290,7 +303,7 @@ def engagement_figure(eng) -> Figure:
     """Left: the stock's top view after the run (height, mm) with the path coloured by the
     radial depth the stock gave (grey where in air); right: entry/exit angles and axial
     depth along s. ``eng`` is a :class:`~feedopt.report.data.EngagementSeries`."""
-    fig = _new_figure(14, 5, 1, 2, right=0.7, top=0.45, wgap=1.6)
+    fig = _new_figure(14, 5, 1, 2, Margins(right=0.7, top=0.45, wgap=1.6))
     ax, axa = fig.subplots(1, 2, width_ratios=[1.3, 1])
     x0, x1, y0, y1 = eng.extent_mm
     im = ax.imshow(eng.stock_top_mm.T, origin="lower", extent=(x0, x1, y0, y1), cmap="Greys",

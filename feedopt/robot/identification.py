@@ -754,17 +754,87 @@ def load_wrenches(tcp_poses: np.ndarray, load: float, lever: float) -> np.ndarra
     return np.concatenate([np.broadcast_to(forces, moments.shape), moments], axis=-1)
 
 
+@dataclass(frozen=True)
+class PlanLoads:
+    """The loads of a suggested plan and what is measured under them.
+
+    Attributes
+    ----------
+    load : float
+        Each force [N] (:func:`load_wrenches`).
+    lever : float
+        Its lever [m] from the TCP along the tool x axis.
+    rotations : bool
+        Measure the TCP rotation as well as its displacement.
+    """
+
+    load: float = 1000.0
+    lever: float = 0.2
+    rotations: bool = True
+
+
+@dataclass(frozen=True)
+class PoseCandidates:
+    """The random configurations a plan is chosen from.
+
+    Attributes
+    ----------
+    count : int
+        Random configurations drawn (``--candidates``).
+    seed : int
+        Seed of the random generator.
+    min_tcp_z : float
+        Lowest TCP height above the base [m] of a kept candidate.
+    margin : float
+        Share of each joint range left out at both ends.
+    """
+
+    count: int = 2000
+    seed: int = 0
+    min_tcp_z: float = 0.0
+    margin: float = 0.05
+
+
+def _check_plan_request(n_poses: int, loads: PlanLoads, candidates: PoseCandidates) -> None:
+    """InputError for a plan size, candidate count, load or seed out of range."""
+    if not 1 <= n_poses <= MAX_POSES:
+        raise InputError(f"--suggest: give 1 to {MAX_POSES} poses, got {n_poses}")
+    if not 10 <= candidates.count <= MAX_CANDIDATES:
+        raise InputError(f"--candidates: give 10 to {MAX_CANDIDATES}, got {candidates.count}")
+    load, lever = loads.load, loads.lever
+    if not (np.isfinite(load) and load > 0) or not (np.isfinite(lever) and lever >= 0):
+        raise InputError(f"the test load must be > 0 and its lever >= 0, got {load:g} N at "
+                         f"{lever * 1e3:g} mm")
+    if candidates.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {candidates.seed}")
+
+
+def _feasible_candidates(robot: RobotModel, n_poses: int, candidates: PoseCandidates
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Random configurations within the joint limits less the margin, kept when
+    non-singular and with the TCP high enough: their q, Jacobians, TCP poses and Jacobian
+    condition numbers. InputError when fewer than ``n_poses`` are kept."""
+    rng = np.random.default_rng(candidates.seed)
+    span = robot.q_upper - robot.q_lower
+    margin = candidates.margin
+    q = rng.uniform(robot.q_lower + margin * span, robot.q_upper - margin * span,
+                    (candidates.count, robot.dof))
+    jac = tcp_jacobians(robot, q)
+    poses = forward_kinematics(robot, q)
+    jcond = jacobian_condition_number(jac, IKOptions().condition_length)
+    ok = (jcond <= NEAR_SINGULAR) & (poses[:, 2, 3] >= candidates.min_tcp_z)
+    if ok.sum() < n_poses:
+        raise InputError(f"only {int(ok.sum())} of {candidates.count} random poses are "
+                         f"non-singular with the TCP above z = {candidates.min_tcp_z * 1e3:g} "
+                         "mm: ask for fewer poses or more candidates")
+    return q[ok], jac[ok], poses[ok], jcond[ok]
+
+
 def suggest_poses(
     robot: RobotModel,
     n_poses: int,
-    *,
-    load: float = 1000.0,
-    lever: float = 0.2,
-    rotations: bool = True,
-    n_candidates: int = 2000,
-    seed: int = 0,
-    min_tcp_z: float = 0.0,
-    margin: float = 0.05,
+    loads: PlanLoads | None = None,
+    candidates: PoseCandidates | None = None,
 ) -> LoadPlan:
     """Pick ``n_poses`` test poses that make the identification well conditioned.
 
@@ -773,13 +843,14 @@ def suggest_poses(
     compliances (the robot's first stiffness set), i.e. the smallest volume of the confidence
     ellipsoid of the relative compliances (Borm and Menq 1991's observability index O1 is its
     n-th root; Sun and Hollerbach 2008 compare such indices for robot calibration).
-    Search: ``n_candidates`` random configurations, uniform within the joint limits less
-    ``margin`` of each range, kept when non-singular (Jacobian condition number <=
-    :data:`NEAR_SINGULAR`) and with the TCP at least ``min_tcp_z`` above the base; greedy
-    forward selection, then Fedorov-style exchange passes (Fedorov 1972; Mitchell's DETMAX)
-    until no swap raises the criterion (at most :data:`EXCHANGE_PASSES`).
-    Each pose gets the loads of :func:`load_wrenches`; the measurements are the TCP
-    displacement (and rotation if ``rotations``). Collisions are not checked.
+    Search: ``candidates.count`` random configurations, uniform within the joint limits less
+    ``candidates.margin`` of each range, kept when non-singular (Jacobian condition number <=
+    :data:`NEAR_SINGULAR`) and with the TCP at least ``candidates.min_tcp_z`` above the base;
+    greedy forward selection, then Fedorov-style exchange passes (Fedorov 1972; Mitchell's
+    DETMAX) until no swap raises the criterion (at most :data:`EXCHANGE_PASSES`).
+    Each pose gets the loads of :func:`load_wrenches` (``loads``, default
+    :class:`PlanLoads`); the measurements are the TCP displacement (and rotation if
+    ``loads.rotations``). Collisions are not checked.
 
     Raises
     ------
@@ -787,32 +858,14 @@ def suggest_poses(
         Bad sizes, too few feasible candidates; UnidentifiableJoints when even the best plan
         cannot identify a joint (e.g. ``lever = 0`` with a tool coaxial with joint 6).
     """
-    if not 1 <= n_poses <= MAX_POSES:
-        raise InputError(f"--suggest: give 1 to {MAX_POSES} poses, got {n_poses}")
-    if not 10 <= n_candidates <= MAX_CANDIDATES:
-        raise InputError(f"--candidates: give 10 to {MAX_CANDIDATES}, got {n_candidates}")
-    if not (np.isfinite(load) and load > 0) or not (np.isfinite(lever) and lever >= 0):
-        raise InputError(f"the test load must be > 0 and its lever >= 0, got {load:g} N at "
-                         f"{lever * 1e3:g} mm")
-    if seed < 0:
-        raise InputError(f"--seed must be >= 0, got {seed}")
-    rng = np.random.default_rng(seed)
-    span = robot.q_upper - robot.q_lower
-    q = rng.uniform(robot.q_lower + margin * span, robot.q_upper - margin * span,
-                    (n_candidates, robot.dof))
-    jac = tcp_jacobians(robot, q)
-    poses = forward_kinematics(robot, q)
-    jcond = jacobian_condition_number(jac, IKOptions().condition_length)
-    ok = (jcond <= NEAR_SINGULAR) & (poses[:, 2, 3] >= min_tcp_z)
-    if ok.sum() < n_poses:
-        raise InputError(f"only {int(ok.sum())} of {n_candidates} random poses are non-singular "
-                         f"with the TCP above z = {min_tcp_z * 1e3:g} mm: ask for fewer poses "
-                         "or more candidates")
-    q, jac, poses, jcond = q[ok], jac[ok], poses[ok], jcond[ok]
-    wrench = load_wrenches(poses, load, lever)  # (c, L, 6)
+    loads = PlanLoads() if loads is None else loads
+    candidates = PoseCandidates() if candidates is None else candidates
+    _check_plan_request(n_poses, loads, candidates)
+    q, jac, poses, jcond = _feasible_candidates(robot, n_poses, candidates)
+    wrench = load_wrenches(poses, loads.load, loads.lever)  # (c, L, 6)
     c, n_loads = wrench.shape[:2]
     nominal = 1.0 / joint_stiffness(robot, next(iter(robot.stiffness)))
-    rows = slice(0, 6 if rotations else 3)
+    rows = slice(0, 6 if loads.rotations else 3)
     a = identification_matrix(np.repeat(jac, n_loads, axis=0), wrench.reshape(-1, 6))
     a = (a[:, rows] * nominal).reshape(c, n_loads * (rows.stop), robot.dof)
     info = np.swapaxes(a, 1, 2) @ a  # (c, dof, dof)

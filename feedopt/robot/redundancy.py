@@ -64,7 +64,7 @@ from scipy.optimize import minimize
 from feedopt.errors import InputError
 from feedopt.robot.ik import IKOptions, solve_path_ik
 from feedopt.robot.model import RobotModel, forward_kinematics, tcp_jacobians
-from feedopt.robot.stage import RobotAlongPath, robot_along_path
+from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
 from feedopt.schedule.stage import ScheduleInputs
 from feedopt.units import MM
 
@@ -457,8 +457,8 @@ def evaluate_profile(
     x = rotate_about_axes(x0, task.tool_axes, psi)
     q0 = start_configuration(robot, task.positions[0], task.tool_axes[0], x0[0],
                              task.nearest.q[0], float(psi[0]), ik_options)
-    along = robot_along_path(robot, task.s, task.positions, task.tool_axes, q0, stiffness_set,
-                             x_axes=x, ik_options=ik_options)
+    along = robot_along_path(robot, TcpPath(task.s, task.positions, task.tool_axes, x_axes=x),
+                             q0, stiffness_set, ik_options=ik_options)
     schedule = task.bound_of(along)
     return ProfileEvaluation(
         psi=psi, x_axes=x, q_start=q0, along=along, schedule=schedule,
@@ -631,10 +631,8 @@ def optimise_redundancy(
     """
     t_start = time.perf_counter()
     options = RedundancyOptions() if options is None else options
-    deflection = options.objective == "deflection"
     length = float(final.s[-1] - final.s[0])
-    k = options.knot_count(length)
-    knot_s = final.s[0] + knot_positions(length, k)
+    knot_s = final.s[0] + knot_positions(length, options.knot_count(length))
 
     if turns_last_joint_only(robot, search.nearest.q, search.tool_axes):
         return _nearest_result(final, options, knot_s, RedundancyStatus.LAST_JOINT, (
@@ -642,13 +640,21 @@ def optimise_redundancy(
             "turns that joint only and leaves the compliance and the feed bound unchanged"),
             t_start, _SearchStats())
 
-    # The nearest solution on the search samples: the reference (and the feasible start).
-    x_search = x_axes_of(robot, search.nearest.q)
-    ref = evaluate_profile(robot, search, np.zeros(search.s.size), stiffness_set, ik_options,
-                           deflection, x_search, options.path_acceleration)
-    srch = _Search(robot=robot, task=search, knot_s=knot_s, x_nearest=x_search,
-                   stiffness_set=stiffness_set, ik_options=ik_options, options=options,
-                   progress=progress)
+    srch = _Search(robot=robot, task=search, knot_s=knot_s,
+                   x_nearest=x_axes_of(robot, search.nearest.q), stiffness_set=stiffness_set,
+                   ik_options=ik_options, options=options, progress=progress)
+    stats = _run_search(srch)
+    return _confirm(srch, final, stats, t_start)
+
+
+def _run_search(srch: _Search) -> _SearchStats:
+    """The search on ``srch``'s samples: the nearest solution as the reference (and the
+    feasible start), the scan of constant offsets, then Powell from the best of them."""
+    options, task = srch.options, srch.task
+    k = srch.knot_s.size
+    ref = evaluate_profile(srch.robot, task, np.zeros(task.s.size), srch.stiffness_set,
+                           srch.ik_options, options.objective == "deflection", srch.x_nearest,
+                           options.path_acceleration)
     srch.reference = srch.objective_of(ref)
     srch.share_allowed = allowed_shares(ref.acceleration_shares,
                                         options.joint_acceleration_share,
@@ -664,10 +670,15 @@ def optimise_redundancy(
                        options={"xtol": options.xtol, "ftol": options.ftol,
                                 "maxfev": remaining, "direc": np.eye(k) * options.step})
         iterations = int(res.nit)
-    stats = _SearchStats(srch.reference, srch.best_value, iterations, srch.evaluations,
-                         srch.infeasible)
+    return _SearchStats(srch.reference, srch.best_value, iterations, srch.evaluations,
+                        srch.infeasible)
 
-    # Full resolution: the nearest (reference) and the best profile found.
+
+def _confirm(srch: _Search, final: RedundancyTask, stats: _SearchStats,
+             t_start: float) -> RedundancyResult:
+    """Full resolution: the nearest solution (the reference) and the search's best profile,
+    scaled towards psi = 0 until one is accepted; else the nearest IK, with the reasons."""
+    options, knot_s = srch.options, srch.knot_s
     nearest = _full_nearest(final, options)
     _, nearest_obj, nearest_share = nearest
 
@@ -683,8 +694,8 @@ def optimise_redundancy(
     for scale in options.backtrack:  # the best profile, then scaled towards psi = 0
         knots = scale * srch.best_knots
         psi = psi_profile(knot_s, knots)(final.s)
-        why = _refusal(robot, final, psi, stiffness_set, ik_options, options, allowed,
-                       nearest_obj)
+        why = _refusal(srch.robot, final, psi, srch.stiffness_set, srch.ik_options, options,
+                       allowed, nearest_obj)
         if isinstance(why, str):
             reasons.append(f"x {scale:g}: {why}")
             continue

@@ -106,42 +106,55 @@ def joint_spline(s: np.ndarray, q: np.ndarray, breaks: np.ndarray | None = None)
     return PPoly(np.concatenate([p.c for p in parts], axis=1), s, extrapolate=True)
 
 
+@dataclass(frozen=True)
+class TcpPath:
+    """What the TCP must do along a sampled path (SI units, base frame).
+
+    Attributes
+    ----------
+    s : (n,) array
+        Arc length of the samples [m], strictly increasing.
+    positions : (n, 3) array
+        TCP positions [m].
+    tool_axes : (n, 3) array
+        Tool axes (TCP +z, from the tool tip into the spindle).
+    x_axes : (n, 3) array or None
+        TCP +x directions (6-DoF task); ``None``: rotation about the tool axis free (5-DoF).
+    breaks : (k,) int array or None
+        Interior sample indices where the path stops and may turn (a corner, a reversal):
+        ``q(s)`` is one cubic spline per piece between them (:func:`joint_spline`).
+    """
+
+    s: np.ndarray
+    positions: np.ndarray
+    tool_axes: np.ndarray
+    x_axes: np.ndarray | None = None
+    breaks: np.ndarray | None = None
+
+
 def robot_along_path(
     robot: RobotModel,
-    s: np.ndarray,
-    positions: np.ndarray,
-    tool_axes: np.ndarray,
+    path: TcpPath,
     q_start: np.ndarray,
     stiffness_set: str | np.ndarray,
-    x_axes: np.ndarray | None = None,
     ik_options: IKOptions | None = None,
     progress: Callable[[int, int], None] | None = None,
-    breaks: np.ndarray | None = None,
 ) -> RobotAlongPath:
     """Solve the robot stage along a sampled path.
 
     Parameters
     ----------
     robot : RobotModel
-    s : (n,) array
-        Arc length of the samples [m], strictly increasing.
-    positions : (n, 3) array
-        TCP positions in the base frame [m].
-    tool_axes : (n, 3) array
-        Tool axes in the base frame (TCP +z, from the tool tip into the spindle).
+    path : TcpPath
+        The samples, TCP positions, tool axes (and x axes, stops) to follow.
     q_start : (dof,) array
         Start configuration [rad]; seeds the IK of the first sample.
     stiffness_set : str or (dof,) array
         Joint stiffness set name (``"cp"``, ``"dpp"``) or values [N m/rad].
-    x_axes : (n, 3) array or None
-        TCP +x directions (6-DoF task); ``None``: rotation about the tool axis free (5-DoF).
     ik_options : IKOptions or None
         IK tunables; ``None``: the defaults.
     progress : callable or None
         ``progress(done, total)`` during the IK (:func:`~feedopt.robot.ik.solve_path_ik`).
-    breaks : (k,) int array or None
-        Interior sample indices where the path stops and may turn (a corner, a reversal):
-        ``q(s)`` is one cubic spline per piece between them (:func:`joint_spline`).
 
     Returns
     -------
@@ -153,13 +166,13 @@ def robot_along_path(
         Bad shapes or arc lengths, an unknown stiffness set, or a path sample the IK refuses
         (unreachable, joint limit, branch flip, near-singular; named by index and pose).
     """
-    s = _arc_lengths(s, positions)
+    s = _arc_lengths(path.s, path.positions)
     k = joint_stiffness(robot, stiffness_set)
-    ik = solve_path_ik(robot, positions, tool_axes, q_start, x_axes=x_axes, options=ik_options,
-                       jacobians=True, progress=progress)
+    ik = solve_path_ik(robot, path.positions, path.tool_axes, q_start, x_axes=path.x_axes,
+                       options=ik_options, jacobians=True, progress=progress)
     compliance = _translational_compliance(ik.jacobian, k)
     ik = replace(ik, jacobian=None)  # (n, 6, dof): not kept
-    q_of_s = joint_spline(s, ik.q, breaks)
+    q_of_s = joint_spline(s, ik.q, path.breaks)
     return RobotAlongPath(
         ik=ik,
         compliance=compliance,

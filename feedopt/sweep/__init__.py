@@ -11,6 +11,12 @@
 - :mod:`~feedopt.sweep.run`: :func:`run_sweep`, which ties them together
 """
 
-from feedopt.sweep.run import SweepInterrupted, SweepResult, run_sweep
+from feedopt.sweep.run import (
+    Execution,
+    SweepInterrupted,
+    SweepResult,
+    SweepSettings,
+    run_sweep,
+)
 
-__all__ = ["SweepInterrupted", "SweepResult", "run_sweep"]
+__all__ = ["Execution", "SweepInterrupted", "SweepResult", "SweepSettings", "run_sweep"]

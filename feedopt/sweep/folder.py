@@ -5,9 +5,9 @@ an interrupted sweep must leave its table where the next one resumes from. So a 
 into its folder directly, under the same promises: the folder must be new, empty, or a
 previous feedopt output (its :data:`feedopt.outdir.MARKER` lists every file feedopt wrote
 there, and nothing else is in it); it is never the current directory, the scenario's folder
-or a parent of them; no file feedopt did not write is touched. The marker is written first,
-listing every file the sweep may write, so even a sweep killed at once leaves a folder the
-next one recognises.
+or a parent of them; no file feedopt did not write is touched. The marker is a run's own
+(:func:`feedopt.outdir.write_marker`), written first, listing every file the sweep may write
+(itself included), so even a sweep killed at once leaves a folder the next one recognises.
 
 - A previous sweep of the same inputs (same scenario and files, laws, spacing and columns,
   recorded in ``sweep.json``) is resumed: points already in its table are not evaluated
@@ -28,7 +28,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from feedopt import __version__, outdir
+from feedopt import outdir
 from feedopt.errors import InputError
 from feedopt.outfile import write_atomically
 
@@ -142,8 +142,7 @@ def open_folder(plan: FolderPlan, spec: dict) -> OpenFolder:
             p = plan.out / name
             if p.is_file() or p.is_symlink():
                 p.unlink()
-        write_atomically(plan.out / outdir.MARKER, json.dumps(
-            {"feedopt": __version__, "files": sorted(plan.files)}, indent=1) + "\n")
+        outdir.write_marker(plan.out, plan.files)
         write_spec(plan.out, spec)
     except BaseException:
         os.close(fd)

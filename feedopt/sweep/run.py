@@ -20,15 +20,63 @@ from feedopt import __version__
 from feedopt.errors import InputError, Terminated
 from feedopt.outfile import write_atomically
 from feedopt.scenario import scenario_input_files
-from feedopt.sweep.bundle import build_bundle, check_axes
+from feedopt.sweep.bundle import Bundle, build_bundle, check_axes
 from feedopt.sweep.execute import ClusterLost, evaluator
-from feedopt.sweep.folder import BEST, SPEC, TABLE, check_folder, open_folder, write_spec
+from feedopt.sweep.folder import (
+    BEST,
+    SPEC,
+    TABLE,
+    FolderPlan,
+    check_folder,
+    open_folder,
+    write_spec,
+)
 from feedopt.sweep.grid import Grid, parse_grid, point_key
 from feedopt.sweep.objective import Objective, best, parse_objective
 from feedopt.sweep.plots import objective_array, plot_names, write_plots
 from feedopt.sweep.point import Metric, PointResult, PointSettings, Status, error_result
 from feedopt.sweep.rowcheck import BadRow, check_row
 from feedopt.sweep.table import Appender, Row, columns, done, read_table, to_row, write_table
+
+
+@dataclass(frozen=True)
+class SweepSettings:
+    """What every point computes and what the best point minimises.
+
+    Attributes
+    ----------
+    laws
+        Laws run at every point (default: the scenario's).
+    objective
+        What the best point minimises (:mod:`feedopt.sweep.objective`).
+    spacing_mm
+        Sample spacing override (as ``feedopt run --spacing-mm``).
+    extra
+        ``(column, f(prepared, results) -> float)``: more numbers per point.
+    """
+
+    laws: Sequence[str] | None = None
+    objective: str = "t_star"
+    spacing_mm: float | None = None
+    extra: Sequence[tuple[str, Metric]] = ()
+
+
+@dataclass(frozen=True)
+class Execution:
+    """Where the points are evaluated and whether a progress bar shows it.
+
+    Attributes
+    ----------
+    scheduler, workers
+        A running Dask scheduler's address, or the local cluster's worker processes (default:
+        the number of cores; 0: this process, no Dask).
+    progress
+        Show a progress bar (default: when stderr is a terminal).
+    """
+
+    scheduler: str | None = None
+    workers: int | None = None
+    progress: bool | None = None
 
 
 @dataclass(frozen=True)
@@ -84,18 +132,95 @@ def _point_dict(grid: Grid, row: Row) -> dict[str, float]:
     return {a.name: float(row[a.name]) for a in grid.axes}
 
 
+@dataclass(frozen=True)
+class _Checked:
+    """A sweep checked before anything is written: its inputs, table and folder plan."""
+
+    bundle: Bundle
+    grid: Grid
+    laws: list[str]
+    extra_names: list[str]
+    goal: Objective
+    header: list[str]
+    spec: dict
+    plan: FolderPlan
+    point_settings: PointSettings
+
+
+def _check_options(grid: Grid, settings: SweepSettings, execution: Execution) -> None:
+    """InputError for options that contradict each other or the grid."""
+    if settings.spacing_mm is not None and any(a.field == "path.spacing_mm" for a in grid.axes):
+        raise InputError("--spacing-mm and --grid path.spacing_mm both set the spacing: give "
+                         "one of them")
+    workers, scheduler = execution.workers, execution.scheduler
+    if workers is not None and (workers < 0 or (scheduler is not None and workers)):
+        raise InputError(f"--workers {workers}: give a number of local worker processes >= 0 "
+                         "(0: this process), and none with --scheduler (the cluster has its "
+                         "own)")
+
+
+def _check(scenario_path: str | Path, grid_specs: Sequence[str], out_dir: str | Path | None,
+           settings: SweepSettings, execution: Execution, restart: bool) -> _Checked:
+    """Check the scenario, laws, objective, grid, options and folder (nothing written)."""
+    bundle, scenario = build_bundle(scenario_path)
+    laws = list(dict.fromkeys(settings.laws or scenario.schedule.laws))
+    goal = parse_objective(settings.objective, laws)
+    grid = parse_grid(grid_specs, bundle.raw, bundle.robot_doc)
+    _check_options(grid, settings, execution)
+    check_axes(bundle, grid.axes)
+    extra_names = [name for name, _ in settings.extra]
+    header = columns(grid.axes, laws, extra_names)
+    if len(set(header)) != len(header):
+        raise InputError(f"extra metrics {extra_names} repeat a column name of the table")
+    spec = {"feedopt": __version__, "scenario": str(scenario_path), "digest": bundle.digest,
+            "laws": laws, "spacing_mm": settings.spacing_mm, "columns": header,
+            "grid": [{"name": a.name, "values": list(a.values)} for a in grid.axes],
+            "objective": goal.name}
+    out = Path(out_dir) if out_dir else Path("out") / f"{scenario.name}_sweep"
+    base_dir = Path(scenario_path).resolve().parent
+    plan = check_folder(out, [Path.cwd(), base_dir], spec,
+                        [TABLE, SPEC, BEST] + [name for name, _ in plot_names(grid)], restart,
+                        inputs=scenario_input_files(scenario, base_dir))
+    return _Checked(bundle, grid, laws, extra_names, goal, header, spec, plan,
+                    PointSettings(tuple(laws), settings.spacing_mm, tuple(settings.extra)))
+
+
+def _evaluate(checked: _Checked, rows: dict, todo: list, evaluate, show: bool,
+              evaluated: list) -> None:
+    """Evaluate ``todo`` and append each row to the folder's table as it finishes (and to
+    ``rows``, its point's key to ``evaluated``, so a stopped sweep knows what it did)."""
+    from tqdm import tqdm
+
+    grid, header = checked.grid, checked.header
+    appender = Appender(checked.plan.out / TABLE, header)
+    try:
+        with tqdm(total=len(todo), disable=not show, unit="point", desc="sweep",
+                  file=sys.stderr) as bar:
+            for result in (evaluate(todo) if todo else ()):
+                row = _table_row(result, grid.axes, checked.laws, checked.extra_names)
+                appender.append(row)
+                rows[point_key(result.values)] = row
+                evaluated.append(point_key(result.values))
+                bar.update(1)
+    finally:
+        appender.close()
+
+
+def _stopped(checked: _Checked, exc: BaseException, reused: int,
+             count: int) -> SweepInterrupted:
+    """The :class:`SweepInterrupted` of a sweep stopped after its folder was opened."""
+    out, grid = checked.plan.out, checked.grid
+    kept = _kept(out / TABLE, checked.header, grid, checked.laws, checked.extra_names)
+    return SweepInterrupted(exc, out, reused + count if kept is None else kept, grid.size)
+
+
 def run_sweep(
     scenario_path: str | Path,
     grid_specs: Sequence[str],
     out_dir: str | Path | None = None,
-    laws: Sequence[str] | None = None,
-    objective: str = "t_star",
-    spacing_mm: float | None = None,
-    scheduler: str | None = None,
-    workers: int | None = None,
+    settings: SweepSettings | None = None,
+    execution: Execution | None = None,
     restart: bool = False,
-    extra: Sequence[tuple[str, Metric]] = (),
-    progress: bool | None = None,
 ) -> SweepResult:
     """Evaluate every point of the grid of ``scenario_path`` and write the sweep's folder.
 
@@ -108,21 +233,14 @@ def run_sweep(
     out_dir
         The sweep's folder (default ``out/<scenario name>_sweep``); an earlier sweep of the
         same inputs there is resumed (:mod:`feedopt.sweep.folder`).
-    laws
-        Laws run at every point (default: the scenario's).
-    objective
-        What the best point minimises (:mod:`feedopt.sweep.objective`).
-    spacing_mm
-        Sample spacing override (as ``feedopt run --spacing-mm``).
-    scheduler, workers
-        A running Dask scheduler's address, or the local cluster's worker processes (default:
-        the number of cores; 0: this process, no Dask).
+    settings
+        The laws, objective, spacing and extra metrics (:class:`SweepSettings`; default: the
+        scenario's laws, T*).
+    execution
+        The Dask scheduler or local workers, and the progress bar (:class:`Execution`;
+        default: a local cluster of one worker per core).
     restart
         Replace an earlier sweep (or feedopt output) in ``out_dir`` instead of resuming it.
-    extra
-        ``(column, f(prepared, results) -> float)``: more numbers per point.
-    progress
-        Show a progress bar (default: when stderr is a terminal).
 
     Raises
     ------
@@ -132,61 +250,27 @@ def run_sweep(
         Ctrl-C, SIGTERM or SIGHUP while points were evaluated, or the Dask cluster was lost
         (:class:`~feedopt.sweep.execute.ClusterLost`); the table keeps the finished points.
     """
-    from tqdm import tqdm
-
-    bundle, scenario = build_bundle(scenario_path)
-    laws = list(dict.fromkeys(laws or scenario.schedule.laws))
-    goal = parse_objective(objective, laws)
-    grid = parse_grid(grid_specs, bundle.raw, bundle.robot_doc)
-    if spacing_mm is not None and any(a.field == "path.spacing_mm" for a in grid.axes):
-        raise InputError("--spacing-mm and --grid path.spacing_mm both set the spacing: give "
-                         "one of them")
-    if workers is not None and (workers < 0 or (scheduler is not None and workers)):
-        raise InputError(f"--workers {workers}: give a number of local worker processes >= 0 "
-                         "(0: this process), and none with --scheduler (the cluster has its "
-                         "own)")
-    check_axes(bundle, grid.axes)
-    extra_names = [name for name, _ in extra]
-    header = columns(grid.axes, laws, extra_names)
-    if len(set(header)) != len(header):
-        raise InputError(f"extra metrics {extra_names} repeat a column name of the table")
-    spec = {"feedopt": __version__, "scenario": str(scenario_path), "digest": bundle.digest,
-            "laws": laws, "spacing_mm": spacing_mm, "columns": header,
-            "grid": [{"name": a.name, "values": list(a.values)} for a in grid.axes],
-            "objective": goal.name}
-    out = Path(out_dir) if out_dir else Path("out") / f"{scenario.name}_sweep"
-    plots = plot_names(grid)
-    base_dir = Path(scenario_path).resolve().parent
-    plan = check_folder(out, [Path.cwd(), base_dir], spec,
-                        [TABLE, SPEC, BEST] + [name for name, _ in plots], restart,
-                        inputs=scenario_input_files(scenario, base_dir))
-    rows = {} if plan.fresh else read_table(plan.out / TABLE, header, grid.axes, laws,
-                                            extra_names)
+    settings = SweepSettings() if settings is None else settings
+    execution = Execution() if execution is None else execution
+    checked = _check(scenario_path, grid_specs, out_dir, settings, execution, restart)
+    grid, plan = checked.grid, checked.plan
+    rows = {} if plan.fresh else read_table(plan.out / TABLE, checked.header, grid.axes,
+                                            checked.laws, checked.extra_names)
     finished = done(rows)
     todo = [p for p in grid.points() if point_key(p) not in finished]
-    settings = PointSettings(tuple(laws), spacing_mm, tuple(extra))
-    show = sys.stderr.isatty() if progress is None else progress
-
-    context = (evaluator(bundle, grid.axes, settings, scheduler, workers, len(todo)) if todo
+    reused = grid.size - len(todo)
+    show = sys.stderr.isatty() if execution.progress is None else execution.progress
+    context = (evaluator(checked.bundle, grid.axes, checked.point_settings,
+                         execution.scheduler, execution.workers, len(todo)) if todo
                else contextlib.nullcontext(None))
     folder = None
-    count = 0
+    evaluated: list[tuple[float, ...]] = []
     try:
         with context as evaluate:
-            folder = open_folder(plan, spec)
-            appender = Appender(plan.out / TABLE, header)
-            try:
-                with tqdm(total=len(todo), disable=not show, unit="point", desc="sweep",
-                          file=sys.stderr) as bar:
-                    for result in (evaluate(todo) if todo else ()):
-                        row = _table_row(result, grid.axes, laws, extra_names)
-                        appender.append(row)
-                        rows[point_key(result.values)] = row
-                        count += 1
-                        bar.update(1)
-            finally:
-                appender.close()
-        return _finish(plan.out, grid, rows, header, goal, spec, count, grid.size - len(todo))
+            folder = open_folder(plan, checked.spec)
+            _evaluate(checked, rows, todo, evaluate, show, evaluated)
+        return _finish(plan.out, grid, rows, checked.header, checked.goal, checked.spec,
+                       len(evaluated), reused)
     except (KeyboardInterrupt, Terminated, ClusterLost) as exc:
         if folder is None and isinstance(exc, ClusterLost):
             raise InputError(f"{exc} before any point was evaluated; nothing was written: "
@@ -194,9 +278,7 @@ def run_sweep(
                              "run") from None
         if folder is None:  # stopped before anything was written
             raise
-        kept = _kept(plan.out / TABLE, header, grid, laws, extra_names)
-        raise SweepInterrupted(exc, plan.out, grid.size - len(todo) + count if kept is None
-                               else kept, grid.size) from exc
+        raise _stopped(checked, exc, reused, len(evaluated)) from exc
     finally:
         if folder is not None:
             folder.close()

@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from feedopt.report.data import LawSeries, ReportData, law_series_from_si
+from feedopt.report.data import (
+    LawSeries,
+    PathCurvesSI,
+    ReportData,
+    TimeCurvesSI,
+    law_series_from_si,
+)
 
 
 def fake_summary(name: str = "triangle_slot", scale: float = 1.0) -> dict:
@@ -43,8 +49,8 @@ def _law(name, s, xyz_kind, t_end, verified=True):
     t = np.linspace(0.0, t_end, m)
     ft = np.interp(t, np.linspace(0, t_end, k), feed)
     qd = np.deg2rad(np.outer(np.sin(t), [1, 2, 3, 4, 5, 6]) * 0.1)
-    return law_series_from_si(name, s, feed, defl, t, ft, np.gradient(ft, t),
-                              np.gradient(np.gradient(ft, t), t), qd, verified,
+    timed = TimeCurvesSI(t, ft, np.gradient(ft, t), np.gradient(np.gradient(ft, t), t), qd)
+    return law_series_from_si(name, PathCurvesSI(s, feed, defl), timed, verified,
                               notes=(f"{name} note",))
 
 

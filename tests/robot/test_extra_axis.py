@@ -20,7 +20,7 @@ from feedopt.robot.extra_axis import choose_extra_axis, evaluate_held, start_wit
 from feedopt.robot.ik import IKOptions, solve_path_ik
 from feedopt.robot.model import forward_kinematics, load_robot
 from feedopt.robot.redundancy import RedundancyOptions, RedundancyStatus, RedundancyTask
-from feedopt.robot.stage import robot_along_path
+from feedopt.robot.stage import TcpPath, robot_along_path
 from feedopt.runner import prepare_front, run_scenario, start_joints
 from feedopt.scenario import load_scenario
 from feedopt.schedule.stage import schedule_problem
@@ -71,9 +71,9 @@ def _tasks(tmp_path, quick_scenario, robot_dir, start, workpiece):
     sc, base = load_scenario(scen)
     front = prepare_front(sc, base, lambda _m: None)
     robot = load_robot(robot_dir)
-    nearest = robot_along_path(robot, front.samples.s, front.placement.positions,
-                               front.placement.tool_axes, start_joints(robot, sc),
-                               sc.robot.stiffness)
+    nearest = robot_along_path(robot, TcpPath(front.samples.s, front.placement.positions,
+                                              front.placement.tool_axes),
+                               start_joints(robot, sc), sc.robot.stiffness)
     task = RedundancyTask(front.samples.s, front.placement.positions,
                           front.placement.tool_axes,
                           lambda a: schedule_problem(sc, front.process, robot, a,

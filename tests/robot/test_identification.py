@@ -21,6 +21,8 @@ from feedopt.errors import InputError
 from feedopt.robot.identification import (
     LoadTests,
     Method,
+    PlanLoads,
+    PoseCandidates,
     UnidentifiableJoints,
     WarningKind,
     fit_compliance_scale,
@@ -263,12 +265,12 @@ def test_identification_matrix_is_the_compliance_model(kuka, a3):
 
 
 def test_suggested_poses_beat_random_designs_and_identify(kuka):
-    plan = suggest_poses(kuka, 6, seed=11, n_candidates=400)
+    plan = suggest_poses(kuka, 6, candidates=PoseCandidates(count=400, seed=11))
     assert plan.q.shape == (6, 6) and plan.wrench.shape == (6, 3, 6)
     assert np.all((plan.q >= kuka.q_lower) & (plan.q <= kuka.q_upper))
     assert np.all(plan.jacobian_condition <= 100) and np.all(plan.tcp_position[:, 2] >= 0)
     assert len(np.unique(plan.q, axis=0)) == 6
-    again = suggest_poses(kuka, 6, seed=11, n_candidates=400)
+    again = suggest_poses(kuka, 6, candidates=PoseCandidates(count=400, seed=11))
     np.testing.assert_array_equal(plan.q, again.q)
 
     def log_det(q: np.ndarray) -> float:
@@ -295,10 +297,10 @@ def test_suggested_poses_beat_random_designs_and_identify(kuka):
 
 def test_suggestion_refuses_plans_that_cannot_identify(kuka):
     with pytest.raises(UnidentifiableJoints, match="joint 6") as err:
-        suggest_poses(kuka, 5, lever=0.0, n_candidates=200)
+        suggest_poses(kuka, 5, PlanLoads(lever=0.0), PoseCandidates(count=200))
     assert err.value.joints == (5,)
     with pytest.raises(UnidentifiableJoints, match="rotations"):
-        suggest_poses(kuka, 5, rotations=False, n_candidates=200)
+        suggest_poses(kuka, 5, PlanLoads(rotations=False), PoseCandidates(count=200))
     with pytest.raises(InputError, match="1 to 200"):
         suggest_poses(kuka, 0)
 

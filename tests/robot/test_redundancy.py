@@ -29,7 +29,7 @@ from feedopt.robot.redundancy import (
     turns_last_joint_only,
     x_axes_of,
 )
-from feedopt.robot.stage import robot_along_path
+from feedopt.robot.stage import TcpPath, robot_along_path
 from feedopt.runner import prepare
 from feedopt.scenario import load_scenario
 from feedopt.schedule.stage import schedule_problem
@@ -172,9 +172,9 @@ def _check_result(result, fine, min_gain: float) -> None:
     assert result.t_star_nearest == pytest.approx(fine.problem.lower_bound_time(), rel=1e-12)
     assert result.gain > min_gain
     # A fresh robot stage + bound with the returned x axes and start gives the reported T*.
-    along = robot_along_path(fine.robot, fine.samples.s, fine.placement.positions,
-                             fine.placement.tool_axes, result.q_start, "dpp",
-                             x_axes=result.x_axes)
+    along = robot_along_path(fine.robot, TcpPath(fine.samples.s, fine.placement.positions,
+                                                 fine.placement.tool_axes, result.x_axes),
+                             result.q_start, "dpp")
     fresh = _bound_of(fine)(along)
     assert fresh.problem.lower_bound_time() == pytest.approx(result.t_star, rel=1e-9)
     # The rotation about the tool axis is psi(s): the x axes by forward kinematics.
@@ -221,9 +221,9 @@ def test_deflection_objective_lowers_the_max_deflection_at_nominal_feed(side_tri
                                  RedundancyOptions(objective="deflection", max_evaluations=60))
     assert result.status is RedundancyStatus.IMPROVED, result.reason
     # Replayed independently: the fresh stage's model at the nominal feed.
-    along = robot_along_path(fine.robot, fine.samples.s, fine.placement.positions,
-                             fine.placement.tool_axes, result.q_start, "dpp",
-                             x_axes=result.x_axes)
+    along = robot_along_path(fine.robot, TcpPath(fine.samples.s, fine.placement.positions,
+                                                 fine.placement.tool_axes, result.x_axes),
+                             result.q_start, "dpp")
     nominal = np.full(fine.samples.s.size, fine.problem.nominal_feed)
     after = _bound_of(fine)(along).model.deflection(nominal).max()
     before = fine.model.deflection(nominal).max()

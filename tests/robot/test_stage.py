@@ -11,7 +11,7 @@ from scipy.interpolate import CubicSpline
 from feedopt.errors import InputError
 from feedopt.robot.ik import IKOptions, solve_path_ik
 from feedopt.robot.model import forward_kinematics
-from feedopt.robot.stage import RobotAlongPath, robot_along_path
+from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
 from feedopt.robot.stiffness import translational_compliance
 from tests.robot.helpers import Q_START_DEG, WORKPIECE_ORIGIN_M, triangle_wave
 
@@ -36,7 +36,7 @@ def test_stage_is_bit_identical_to_the_direct_calls(kuka, six_dof):
     x = np.tile([1.0, 0.0, 0.0], (s.size, 1)) if six_dof else None
     if six_dof:  # an x axis the 5-DoF solution actually has, so the 6-DoF task is feasible
         x = forward_kinematics(kuka, solve_path_ik(kuka, p, z, q0).q)[:, :3, 0]
-    got = robot_along_path(kuka, s, p, z, q0, "dpp", x_axes=x)
+    got = robot_along_path(kuka, TcpPath(s, p, z, x), q0, "dpp")
     ik, comp, q_of_s = _direct(kuka, s, p, z, q0, "dpp", x_axes=x)
     for f in dataclasses.fields(ik):
         np.testing.assert_array_equal(getattr(got.ik, f.name), getattr(ik, f.name))
@@ -52,7 +52,7 @@ def test_stage_is_bit_identical_to_the_direct_calls(kuka, six_dof):
 
 def test_stage_shapes_units_and_warnings(kuka):
     s, p, z, q0 = _task(201)
-    got = robot_along_path(kuka, s, p, z, q0, "cp")
+    got = robot_along_path(kuka, TcpPath(s, p, z), q0, "cp")
     assert isinstance(got, RobotAlongPath)
     assert got.compliance.shape == (201, 3, 3) and got.dq_ds.shape == (201, 6)
     np.testing.assert_array_equal(got.compliance, translational_compliance(kuka, got.q, "cp"))
@@ -68,27 +68,28 @@ def test_stage_shapes_units_and_warnings(kuka):
 def test_explicit_stiffness_and_ik_options_pass_through(kuka):
     s, p, z, q0 = _task(201)
     k = np.full(6, 2e6)
-    got = robot_along_path(kuka, s, p, z, q0, k, ik_options=IKOptions(max_condition=50.0))
+    got = robot_along_path(kuka, TcpPath(s, p, z), q0, k,
+                           ik_options=IKOptions(max_condition=50.0))
     np.testing.assert_array_equal(got.compliance, translational_compliance(kuka, got.q, k))
     with pytest.raises(InputError, match=r"jumps by .*> 0\.001 deg"):
-        robot_along_path(kuka, s, p, z, q0, "dpp",
+        robot_along_path(kuka, TcpPath(s, p, z), q0, "dpp",
                          ik_options=IKOptions(max_joint_step=np.deg2rad(1e-3)))
 
 
 def test_bad_inputs(kuka):
     s, p, z, q0 = _task(21)
     with pytest.raises(InputError, match=r"s must have shape \(21,\)"):
-        robot_along_path(kuka, s[:-1], p, z, q0, "dpp")
+        robot_along_path(kuka, TcpPath(s[:-1], p, z), q0, "dpp")
     s_bad = s.copy()
     s_bad[7] = s_bad[6]
     with pytest.raises(InputError, match="strictly increasing; sample 7"):
-        robot_along_path(kuka, s_bad, p, z, q0, "dpp")
+        robot_along_path(kuka, TcpPath(s_bad, p, z), q0, "dpp")
     s_bad[7] = np.nan
     with pytest.raises(InputError, match="sample 7"):
-        robot_along_path(kuka, s_bad, p, z, q0, "dpp")
+        robot_along_path(kuka, TcpPath(s_bad, p, z), q0, "dpp")
     with pytest.raises(InputError, match="at least 2 samples"):
-        robot_along_path(kuka, s[:1], p[:1], z[:1], q0, "dpp")
+        robot_along_path(kuka, TcpPath(s[:1], p[:1], z[:1]), q0, "dpp")
     with pytest.raises(InputError, match="available: cp, dpp"):
-        robot_along_path(kuka, s, p, z, q0, "xyz")
+        robot_along_path(kuka, TcpPath(s, p, z), q0, "xyz")
     with pytest.raises(InputError, match="positions must have shape"):
-        robot_along_path(kuka, s, p[:, :2].ravel(), z, q0, "dpp")
+        robot_along_path(kuka, TcpPath(s, p[:, :2].ravel(), z), q0, "dpp")

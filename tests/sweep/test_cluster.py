@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from feedopt.sweep import run_sweep
+from feedopt.sweep import Execution, SweepSettings, run_sweep
 from tests.sweep.cluster import (
     POINTS,
     SWEEP_ARGS,
@@ -44,8 +44,9 @@ def scenario(quick_scenario):
 @pytest.fixture
 def reference(scenario, tmp_path):
     """The same sweep in this process, without Dask: the rows every cluster run must give."""
-    run_sweep(scenario, [SWEEP_ARGS[-1]], out_dir=tmp_path / "serial", laws=["constant", "jerk"],
-              spacing_mm=1.0, workers=0, progress=False)
+    run_sweep(scenario, [SWEEP_ARGS[-1]], out_dir=tmp_path / "serial",
+              settings=SweepSettings(laws=["constant", "jerk"], spacing_mm=1.0),
+              execution=Execution(workers=0, progress=False))
     return without_time(data_rows(tmp_path / "serial"))
 
 

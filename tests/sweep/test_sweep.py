@@ -12,12 +12,14 @@ import pytest
 from feedopt.errors import InputError
 from feedopt.runner import prepare
 from feedopt.scenario import load_scenario
-from feedopt.sweep import run_sweep
+from feedopt.sweep import Execution, SweepSettings, run_sweep
 from feedopt.sweep.point import nominal_feed
 from feedopt.units import MM
 
 LAWS = ["constant", "jerk"]
 SPACING = {"path__spacing_mm": 5.0}  # ~100 samples: a point plans in about 0.1 s
+SERIAL = Execution(workers=0)
+JERK, CONSTANT = SweepSettings(laws=["jerk"]), SweepSettings(laws=["constant"])
 
 
 def _table(folder) -> list[dict]:
@@ -32,8 +34,10 @@ def _without_time(rows: list[dict]) -> list[dict]:
 def test_local_cluster_gives_exactly_the_serial_results(quick_scenario, tmp_path):
     scenario = quick_scenario("triangle_slot", **SPACING)
     grid = ["workpiece.position_mm=x:1750;5000", "cut.axial_depth_mm=1.0;1.5"]
-    parallel = run_sweep(scenario, grid, out_dir=tmp_path / "dask", laws=LAWS, workers=2)
-    serial = run_sweep(scenario, grid, out_dir=tmp_path / "serial", laws=LAWS, workers=0)
+    parallel = run_sweep(scenario, grid, out_dir=tmp_path / "dask",
+                         settings=SweepSettings(laws=LAWS), execution=Execution(workers=2))
+    serial = run_sweep(scenario, grid, out_dir=tmp_path / "serial",
+                       settings=SweepSettings(laws=LAWS), execution=SERIAL)
     rows = _table(tmp_path / "dask")
     differ = [(k, c, a[c], b[c]) for k, (a, b) in enumerate(zip(
         _without_time(rows), _without_time(_table(tmp_path / "serial")), strict=True))
@@ -78,7 +82,7 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_points(quick_scen
     scenario = quick_scenario("triangle_slot", **SPACING)
     grid = ["workpiece.position_mm=x:1700;1750;1800"]
     out = tmp_path / "sweep"
-    first = run_sweep(scenario, grid, out_dir=out, laws=["jerk"], workers=0)
+    first = run_sweep(scenario, grid, out_dir=out, settings=JERK, execution=SERIAL)
     assert first.evaluated == 3
     complete = _table(out)
 
@@ -91,7 +95,7 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_points(quick_scen
     (out / "sweep.csv").write_text(lines[0] + marked + errored + lines[3][:40])
     (out / "best.json").unlink()
 
-    again = run_sweep(scenario, grid, out_dir=out, laws=["jerk"], workers=0)
+    again = run_sweep(scenario, grid, out_dir=out, settings=JERK, execution=SERIAL)
     assert (again.evaluated, again.reused) == (2, 1)
     rows = _table(out)
     assert rows[0]["t_star_s"] == "999.0"  # taken from the table, not evaluated again
@@ -103,26 +107,27 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_points(quick_scen
         else float(complete[2]["workpiece.position_mm.x"])}
 
     # a finished sweep run again evaluates nothing
-    assert run_sweep(scenario, grid, out_dir=out, laws=["jerk"], workers=0).evaluated == 0
+    assert run_sweep(scenario, grid, out_dir=out, settings=JERK, execution=SERIAL).evaluated == 0
 
 
 def test_the_folder_rules(quick_scenario, tmp_path):
     scenario = quick_scenario("triangle_slot", **SPACING)
     out = tmp_path / "sweep"
-    run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, laws=["jerk"], workers=0)
+    run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, settings=JERK, execution=SERIAL)
     mine = out / "notes.txt"
     mine.write_text("mine")
     with pytest.raises(InputError, match="notes.txt"):
-        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, laws=["jerk"], workers=0,
-                  restart=True)
+        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, settings=JERK,
+                  execution=SERIAL, restart=True)
     mine.unlink()
     with pytest.raises(InputError, match="other inputs .*the laws"):
-        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, laws=["constant"],
-                  workers=0)
-    result = run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, laws=["constant"],
-                       workers=0, restart=True)
+        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, settings=CONSTANT,
+                  execution=SERIAL)
+    result = run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=out, settings=CONSTANT,
+                       execution=SERIAL, restart=True)
     assert result.evaluated == 1 and "constant.verdict" in _table(out)[0]
     marker = json.loads((out / ".feedopt-output.json").read_text())
     assert set(marker["files"]) >= {p.name for p in out.iterdir()}
     with pytest.raises(InputError, match="current directory"):
-        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=".", laws=["jerk"], workers=0)
+        run_sweep(scenario, ["cut.axial_depth_mm=1.5"], out_dir=".", settings=JERK,
+                  execution=SERIAL)
