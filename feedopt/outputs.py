@@ -37,6 +37,9 @@ _BYTES_PER_ROW = 250
 #: 1 kB per sample for convex, 0.3 kB for the report) would sit next to this process's,
 #: while the imports they save (~0.5 s each) are a small part of such a run.
 CHILD_COPY_MAX_SAMPLES = 200_000
+#: Samples from which the laws are exported in forked children side by side
+#: (:func:`_run_exports`): a law's exports take seconds there, a fork milliseconds.
+PARALLEL_EXPORT_MIN_SAMPLES = 50_000
 
 
 def controller_rows(duration: float, cycle: float) -> float:
@@ -108,6 +111,10 @@ def _export_job(prepared: Prepared, law: str, res: LawResult, samples, cycle: fl
     spec = LAWS.get(law)
 
     def nominal_in_base(s: np.ndarray) -> np.ndarray:
+        if s.shape == problem.s.shape and np.array_equal(s, prepared.samples.s):
+            # the samples: placed already (cell.place_path, the same product), not
+            # evaluated again (a path's evaluation inverts its splines' arc length)
+            return prepared.placement.positions.copy()
         return prepared.placement.to_base(prepared.path.evaluate(s).position)
 
     return ExportJob(
@@ -148,27 +155,45 @@ def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list
     return background.start(draw, "drawing the report")
 
 
+def _export_law(job, out_dir: Path) -> tuple[dict, float]:
+    """Every exporter of one law (:func:`feedopt.export.job.run_exporters`): its summary
+    entries and the time it took [s]."""
+    from feedopt.export.job import run_exporters
+
+    t0 = time.perf_counter()
+    entry = run_exporters(job, out_dir)
+    return entry, time.perf_counter() - t0
+
+
 def _run_exports(pending: list, out_dir: Path, times: dict, progress: Progress | None,
                  drawing: background.Prestarted | None) -> float:
     """Every exporter of each pending law, timed; the drawing child is cancelled if one
-    fails. Returns the time spent [s]."""
-    from feedopt.export.job import run_exporters
-
-    exporting = 0.0
+    fails. On a long path (:data:`PARALLEL_EXPORT_MIN_SAMPLES`) each law is exported in a
+    forked child of its own (the laws' files are their own, the data shared copy on
+    write), side by side on the cores. Returns the wall time spent [s]."""
+    t_start = time.perf_counter()
+    forking = (len(pending) > 1 and background.fork_available()
+               and pending[0][2].problem.n >= PARALLEL_EXPORT_MIN_SAMPLES)
+    children: list[background.Background] = []
     try:
         with progress_bar(progress, "[5/5] export", " laws", False) as bar:
+            if forking:
+                children = [background.start(partial(_export_law, job, out_dir),
+                                             f"exporting {law}") for law, _, job in pending]
             for done, (law, entry, job) in enumerate(pending, start=1):
-                t0 = time.perf_counter()
-                entry.update(run_exporters(job, out_dir))
-                times[("export", law)] += time.perf_counter() - t0
-                exporting += time.perf_counter() - t0
+                got, seconds = (children[done - 1].join(reraise=True) if forking
+                                else _export_law(job, out_dir))
+                entry.update(got)
+                times[("export", law)] += seconds
                 if bar is not None:
                     bar(done, len(pending))
     except BaseException:
+        for child in children:  # those not joined yet: killed (joined ones return at once)
+            child.join(cancel=True)
         if drawing is not None:
             drawing.join(cancel=True)
         raise
-    return exporting
+    return time.perf_counter() - t_start
 
 
 def write_outputs(
