@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.schedule.joints import dense_joint_extrema
+from feedopt.schedule.joints import DenseJoints, dense_joint_extrema
 from feedopt.schedule.polynomial import horner, sample_piece_chunks, sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
@@ -344,6 +344,10 @@ def dense_extrema(trajectory: Trajectory, points: int = _POINTS_PER_PIECE) -> De
     return DenseExtrema(best["max_accel"], best["max_jerk"], best["min_feed"], max_feed)
 
 
+#: A check's finding: what kind of violation and the message naming where.
+Finding = tuple[Violation, str]
+
+
 def check_timing(
     trajectory: Trajectory,
     problem: ScheduleProblem,
@@ -368,101 +372,26 @@ def check_timing(
         Largest acceleration jump [m/s^2] still counted as continuous; default
         ``1e-6 * max(1, max|sddot|)``, i.e. numerical noise.
     """
-    pp = trajectory.timing
-    problems: list[str] = []
-    violations = Violation.NONE
-
-    def report(kind: Violation, message: str) -> None:
-        nonlocal violations
-        violations |= kind
-        problems.append(message)
-
     # Feed at the path samples (exact inverse of s(t)).
     t_samples = trajectory.time_at(problem.s) if sample_times is None else sample_times
-    motion = trajectory.at(t_samples)
-    ratio = motion.sdot / problem.v_max
+    feed = trajectory.at(t_samples).sdot
+    ratio = feed / problem.v_max
     worst = int(np.argmax(ratio))
-    if enforce_feed_bound and ratio[worst] > 1 + rtol:
-        report(
-            Violation.FEED_BOUND,
-            f"feed {motion.sdot[worst] / MM:.6g} mm/s exceeds its bound "
-            f"{problem.v_max[worst] / MM:.6g} mm/s at s = {problem.s[worst] / MM:.3f} mm "
-            f"(sample {worst}, ratio {ratio[worst]:.6f})"
-        )
-
-    # Dense evaluation per piece for acceleration / jerk extrema.
-    dense = dense_extrema(trajectory)
-    max_accel, max_jerk = dense.max_accel.value, dense.max_jerk.value
-
-    def where(e: Extreme) -> str:
-        return f"at t = {e.t:.4f} s, s = {e.s / MM:.3f} mm"
-
-    if max_accel > problem.accel_max * (1 + rtol):
-        report(
-            Violation.ACCELERATION,
-            f"tangential acceleration {max_accel / MM:.6g} mm/s^2 exceeds its limit "
-            f"{problem.accel_max / MM:.6g} mm/s^2 {where(dense.max_accel)}"
-        )
-    if np.isfinite(problem.jerk_max) and trajectory.continuity >= 2:
-        if max_jerk > problem.jerk_max * (1 + rtol):
-            report(
-                Violation.JERK,
-                f"tangential jerk {max_jerk / MM:.6g} mm/s^3 exceeds its limit "
-                f"{problem.jerk_max / MM:.6g} mm/s^3 {where(dense.max_jerk)}"
-            )
-    if dense.min_feed.value < -1e-9 * max(1.0, dense.max_feed):
-        report(
-            Violation.REVERSAL,
-            f"the path velocity becomes negative ({dense.min_feed.value / MM:.4g} mm/s "
-            f"{where(dense.min_feed)}): the tool would reverse"
-        )
-
-    v_jump = breakpoint_jumps(trajectory, 1)
-    a_jump = breakpoint_jumps(trajectory, 2)
-    s_jump = breakpoint_jumps(trajectory, 0)
-    vj = float(v_jump.max(initial=0.0))
-    aj = float(a_jump.max(initial=0.0))
-    tol = c2_tol if c2_tol is not None else 1e-6 * max(1.0, max_accel)
-    c2 = bool(aj <= tol and vj <= 1e-9 and s_jump.max(initial=0.0) <= 1e-12)
-    if trajectory.continuity >= 2 and not c2:
-        k = int(np.argmax(a_jump)) if a_jump.size else 0
-        at = (f" at t = {pp.x[k + 1]:.4f} s, s = {float(pp(pp.x[k + 1])) / MM:.3f} mm"
-              if a_jump.size else "")
-        report(Violation.C2, f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")
-
-    # Joint velocity and acceleration of q(s(t)) between the samples too (dense replay).
+    findings = _feed_findings(problem, feed, ratio, worst, rtol) if enforce_feed_bound else []
+    dense = dense_extrema(trajectory)  # per piece: acceleration / jerk extrema
+    findings += _motion_findings(trajectory, problem, dense, rtol)
+    vj, aj, c2, found = _continuity(trajectory, dense.max_accel.value, c2_tol)
+    findings += found
+    # joint velocity and acceleration of q(s(t)) between the samples too (dense replay)
     joints = dense_joint_extrema(trajectory, problem, t_samples)
-    for kind, what, unit, e, limits in (
-        (Violation.JOINT_VELOCITY, "velocity", "deg/s", joints.velocity,
-         problem.joint_velocity_max),
-        (Violation.JOINT_ACCELERATION, "acceleration", "deg/s^2", joints.acceleration,
-         problem.joint_acceleration_max),
-    ):
-        if e.ratio > 1 + rtol:
-            report(
-                kind,
-                f"joint {e.joint + 1} {what} {np.rad2deg(abs(e.value)):.4g} {unit} exceeds its "
-                f"limit {np.rad2deg(limits[e.joint]):.4g} {unit} ({e.ratio:.4f} x) at "
-                f"s = {e.s / MM:.3f} mm ({e.where})"
-            )
-
-    # Boundary feeds at the first and last instant (inverting a flat s(t) at rest is
-    # ill-conditioned, so these are not taken from the sample inversion).
-    ends = trajectory.at(np.array([pp.x[0], pp.x[-1]]))
-    start, end = float(ends.sdot[0]), float(ends.sdot[1])
-    for kind, name, got, want in ((Violation.START_FEED, "start", start, problem.v_start),
-                                  (Violation.END_FEED, "end", end, problem.v_end)):
-        if abs(got - want) > 1e-9 + rtol * abs(want):
-            report(kind, f"{name} feed {got / MM:.6g} mm/s differs from the requested "
-                         f"{want / MM:.6g} mm/s")
-    if abs(trajectory.length - problem.length) > 1e-9 + 1e-9 * problem.length:
-        report(
-            Violation.LENGTH,
-            f"covers {trajectory.length / MM:.9g} mm of a {problem.length / MM:.9g} mm path"
-        )
-
+    findings += _joint_findings(joints, problem, rtol)
+    start, end, found = _boundary_findings(trajectory, problem, rtol)
+    findings += found
     start_ramp, stop_ramp, cutting = find_ramps(trajectory, problem,
                                                 follow_bound=enforce_feed_bound)
+    violations = Violation.NONE
+    for kind, _ in findings:
+        violations |= kind
     return TimingCheck(
         duration=trajectory.duration,
         lower_bound=problem.lower_bound_time(),
@@ -470,8 +399,8 @@ def check_timing(
         worst_sample=worst,
         max_feed=dense.max_feed,
         min_cutting_feed=cutting,
-        max_accel=max_accel,
-        max_jerk=max_jerk,
+        max_accel=dense.max_accel.value,
+        max_jerk=dense.max_jerk.value,
         velocity_jump=vj,
         accel_jump=aj,
         c2=c2,
@@ -481,6 +410,102 @@ def check_timing(
         end_feed=end,
         start_ramp=start_ramp,
         stop_ramp=stop_ramp,
-        problems=tuple(problems),
+        problems=tuple(message for _, message in findings),
         violations=violations,
     )
+
+
+def _feed_findings(problem: ScheduleProblem, feed: np.ndarray, ratio: np.ndarray, worst: int,
+                   rtol: float) -> list[Finding]:
+    """The feed at the samples [m/s] over its bound v_max (``ratio`` = feed / v_max, largest
+    at ``worst``)."""
+    if ratio[worst] <= 1 + rtol:
+        return []
+    return [(Violation.FEED_BOUND,
+             f"feed {feed[worst] / MM:.6g} mm/s exceeds its bound "
+             f"{problem.v_max[worst] / MM:.6g} mm/s at s = {problem.s[worst] / MM:.3f} mm "
+             f"(sample {worst}, ratio {ratio[worst]:.6f})")]
+
+
+def _where(e: Extreme) -> str:
+    return f"at t = {e.t:.4f} s, s = {e.s / MM:.3f} mm"
+
+
+def _motion_findings(trajectory: Trajectory, problem: ScheduleProblem, dense: DenseExtrema,
+                     rtol: float) -> list[Finding]:
+    """Tangential acceleration and jerk over their limits, and a reversal, found densely."""
+    out: list[Finding] = []
+    if dense.max_accel.value > problem.accel_max * (1 + rtol):
+        out.append((Violation.ACCELERATION,
+                    f"tangential acceleration {dense.max_accel.value / MM:.6g} mm/s^2 exceeds "
+                    f"its limit {problem.accel_max / MM:.6g} mm/s^2 {_where(dense.max_accel)}"))
+    if (np.isfinite(problem.jerk_max) and trajectory.continuity >= 2
+            and dense.max_jerk.value > problem.jerk_max * (1 + rtol)):
+        out.append((Violation.JERK,
+                    f"tangential jerk {dense.max_jerk.value / MM:.6g} mm/s^3 exceeds its limit "
+                    f"{problem.jerk_max / MM:.6g} mm/s^3 {_where(dense.max_jerk)}"))
+    if dense.min_feed.value < -1e-9 * max(1.0, dense.max_feed):
+        out.append((Violation.REVERSAL,
+                    f"the path velocity becomes negative ({dense.min_feed.value / MM:.4g} mm/s "
+                    f"{_where(dense.min_feed)}): the tool would reverse"))
+    return out
+
+
+def _continuity(trajectory: Trajectory, max_accel: float, c2_tol: float | None
+                ) -> tuple[float, float, bool, list[Finding]]:
+    """The largest velocity and acceleration jumps at breakpoints, whether s(t) is C2, and
+    a law that claims C2 without being it."""
+    pp = trajectory.timing
+    v_jump = breakpoint_jumps(trajectory, 1)
+    a_jump = breakpoint_jumps(trajectory, 2)
+    s_jump = breakpoint_jumps(trajectory, 0)
+    vj = float(v_jump.max(initial=0.0))
+    aj = float(a_jump.max(initial=0.0))
+    tol = c2_tol if c2_tol is not None else 1e-6 * max(1.0, max_accel)
+    c2 = bool(aj <= tol and vj <= 1e-9 and s_jump.max(initial=0.0) <= 1e-12)
+    if trajectory.continuity < 2 or c2:
+        return vj, aj, c2, []
+    k = int(np.argmax(a_jump)) if a_jump.size else 0
+    at = (f" at t = {pp.x[k + 1]:.4f} s, s = {float(pp(pp.x[k + 1])) / MM:.3f} mm"
+          if a_jump.size else "")
+    return vj, aj, c2, [(Violation.C2,
+                         f"claims C2 but the acceleration jumps by {aj / MM:.3g} mm/s^2{at}")]
+
+
+def _joint_findings(joints: DenseJoints, problem: ScheduleProblem, rtol: float
+                    ) -> list[Finding]:
+    """Joint velocities and accelerations over their limits (``joints``:
+    :func:`dense_joint_extrema`)."""
+    out: list[Finding] = []
+    for kind, what, unit, e, limits in (
+        (Violation.JOINT_VELOCITY, "velocity", "deg/s", joints.velocity,
+         problem.joint_velocity_max),
+        (Violation.JOINT_ACCELERATION, "acceleration", "deg/s^2", joints.acceleration,
+         problem.joint_acceleration_max),
+    ):
+        if e.ratio > 1 + rtol:
+            out.append((kind,
+                        f"joint {e.joint + 1} {what} {np.rad2deg(abs(e.value)):.4g} {unit} "
+                        f"exceeds its limit {np.rad2deg(limits[e.joint]):.4g} {unit} "
+                        f"({e.ratio:.4f} x) at s = {e.s / MM:.3f} mm ({e.where})"))
+    return out
+
+
+def _boundary_findings(trajectory: Trajectory, problem: ScheduleProblem, rtol: float
+                       ) -> tuple[float, float, list[Finding]]:
+    """The feeds at the first and last instant against the requested ones (inverting a
+    flat s(t) at rest is ill-conditioned, so they are not taken from the samples), and the
+    length covered."""
+    pp = trajectory.timing
+    ends = trajectory.at(np.array([pp.x[0], pp.x[-1]]))
+    start, end = float(ends.sdot[0]), float(ends.sdot[1])
+    out: list[Finding] = []
+    for kind, name, got, want in ((Violation.START_FEED, "start", start, problem.v_start),
+                                  (Violation.END_FEED, "end", end, problem.v_end)):
+        if abs(got - want) > 1e-9 + rtol * abs(want):
+            out.append((kind, f"{name} feed {got / MM:.6g} mm/s differs from the requested "
+                              f"{want / MM:.6g} mm/s"))
+    if abs(trajectory.length - problem.length) > 1e-9 + 1e-9 * problem.length:
+        out.append((Violation.LENGTH, f"covers {trajectory.length / MM:.9g} mm of a "
+                                      f"{problem.length / MM:.9g} mm path"))
+    return start, end, out

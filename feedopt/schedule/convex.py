@@ -331,18 +331,23 @@ def _rest_reach_feed(problem: ScheduleProblem, s_grid: np.ndarray) -> np.ndarray
     return w
 
 
-def _solve_socp(
-    s_mm: np.ndarray,
-    b_node: np.ndarray,
-    b_int: np.ndarray,
-    joint_rows: JointRows,
-    a_max: float,
-    j_max: float,
-    b_start: float,
-    b_end: float,
-    w: np.ndarray,
-    solver_options: dict,
-):
+@dataclass(frozen=True)
+class _SocpData:
+    """The SOCP's numbers in mm / s units: gridpoints ``s_mm``, bounds on b = sdot^2 at the
+    gridpoints and over each interval, the boundary b, the per-interval feed bound ``w`` of
+    the jerk rows and the tangential acceleration and jerk limits."""
+
+    s_mm: np.ndarray
+    b_node: np.ndarray
+    b_int: np.ndarray
+    b_start: float
+    b_end: float
+    w: np.ndarray
+    a_max: float
+    j_max: float
+
+
+def _solve_socp(data: _SocpData, joint_rows: JointRows, solver_options: dict):
     """Solve the SOCP in mm / s units; returns (b, a, status, solve time, setup time).
 
     ``status`` is a :class:`SocpStatus`; ``b`` and ``a`` are None when cvxpy has no values.
@@ -350,6 +355,8 @@ def _solve_socp(
     import cvxpy as cp
 
     t0 = time.perf_counter()
+    s_mm, b_node, b_int, w = data.s_mm, data.b_node, data.b_int, data.w
+    a_max, j_max, b_start, b_end = data.a_max, data.j_max, data.b_start, data.b_end
     n = s_mm.size
     ds = np.diff(s_mm)
     # sddot linear in s: b_{k+1} - b_k = ds (a_k + a_{k+1}). On a piece that starts (ends)
@@ -519,11 +526,10 @@ def _attempt(problem: ScheduleProblem, grid: _Grid, scales: _Scales, options: Co
         s=grid.s * MM_PER_M, b_int=b_int, a_cap=a_lim * scales.accel * MM_PER_M,
         qdd_max=np.asarray(problem.joint_acceleration_max, dtype=float) * scales.joint,
         rest_start=b_start == 0, rest_end=b_end == 0, scale=MM_PER_M), grid.peaks)
-    b, a, status, solve_time, total = _solve_socp(
-        grid.s * MM_PER_M, b_node, b_int, rows, a_lim * scales.accel * MM_PER_M,
-        j_lim * scales.jerk * MM_PER_M, b_start, b_end, grid.w_bound * scales.feed * MM_PER_M,
-        options.solver_options,
-    )
+    b, a, status, solve_time, total = _solve_socp(_SocpData(
+        s_mm=grid.s * MM_PER_M, b_node=b_node, b_int=b_int, b_start=b_start, b_end=b_end,
+        w=grid.w_bound * scales.feed * MM_PER_M, a_max=a_lim * scales.accel * MM_PER_M,
+        j_max=j_lim * scales.jerk * MM_PER_M), rows, options.solver_options)
     if b is None or not status.solved:
         raise InputError(
             f"the convex SOCP is {status}: the boundary feeds, the feed bound and the "

@@ -30,15 +30,32 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from math import comb
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 
 from feedopt.schedule.polynomial import derivative_coefficients, horner
+from feedopt.schedule.trajectory import Trajectory
 
-if TYPE_CHECKING:  # the problem caches its screen from here (ScheduleProblem.joint_screen)
-    from feedopt.schedule.problem import ScheduleProblem
-    from feedopt.schedule.trajectory import Trajectory
+
+class ScheduleProblem(Protocol):
+    """What this module reads of a :class:`feedopt.schedule.problem.ScheduleProblem` (which
+    imports this module for its joint screen, so it is named here by its shape): the
+    samples' arc lengths [m] and stops, the joints' first and second derivatives in s and
+    their limits."""
+
+    s: np.ndarray
+    dq_ds: np.ndarray
+    d2q_ds2: np.ndarray
+    joint_velocity_max: np.ndarray
+    joint_acceleration_max: np.ndarray
+    stops: Any  # StopSamples (its ``index``) or None
+
+    @property
+    def n(self) -> int: ...
+
+    @property
+    def joint_screen(self) -> JointScreen: ...
 
 #: Instants per sample interval of the dense replay (both ends included).
 DENSE_POINTS = 9
