@@ -39,6 +39,7 @@ from feedopt.geometry.registry import (
     segment_kinds,
 )
 from feedopt.geometry.segment import Segment as Segment
+from feedopt.parallel import for_each_chunk
 from feedopt.units import MM, MM_PER_M
 
 REPEAT_TOL = 1e-9  # consecutive waypoints closer than this [m] are "repeated"
@@ -207,19 +208,26 @@ class Path:
                                                spacing))
 
     def _eval_segments(self, seg: np.ndarray, sl: np.ndarray):
-        """Evaluate segments ``seg`` at local arc lengths ``sl`` (clipped to the segment)."""
+        """Evaluate segments ``seg`` at local arc lengths ``sl`` (clipped to the segment),
+        in chunks of one kind each; many chunks (a long path's samples) go to the cores
+        (:func:`feedopt.parallel.for_each_chunk`: each writes its own rows)."""
         seg = np.asarray(seg, dtype=np.intp)
         sl = np.clip(np.asarray(sl, dtype=float), 0.0, self._len[seg]) + self._offset[seg]
         n = seg.size
         out = [np.empty((n, 3)) for _ in range(4)]
         code = self._code[seg]
-        for c, ev in self._eval.items():
+        parts = []
+        for c in self._eval:
             idx = np.flatnonzero(code == c)
-            for lo in range(0, idx.size, _CHUNK):
-                part = idx[lo:lo + _CHUNK]
-                res = ev.eval(self._local[seg[part]], sl[part])
-                for o, r in zip(out, res, strict=True):
-                    o[part] = r
+            parts += [(c, idx[lo:lo + _CHUNK]) for lo in range(0, idx.size, _CHUNK)]
+
+        def run(part: tuple[Any, np.ndarray]) -> None:
+            c, rows = part
+            res = self._eval[c].eval(self._local[seg[rows]], sl[rows])
+            for o, r in zip(out, res, strict=True):
+                o[rows] = r
+
+        for_each_chunk(run, parts, threads=None if len(parts) > 1 else 1)
         return tuple(out)
 
 
