@@ -125,6 +125,36 @@ def _num(x: float, decimals: int = XYZ_DECIMALS) -> str:
     return "0." if text in ("-0", "0", "") else (text if "." in text else text + ".")
 
 
+def _nums(x: np.ndarray, decimals: int = XYZ_DECIMALS) -> np.ndarray:
+    """:func:`_num` of every value of ``x``, the stripping done on the array of texts."""
+    text = np.array([f"{v:.{decimals}f}" for v in np.ravel(x).tolist()])
+    text = np.strings.rstrip(np.strings.rstrip(text, "0"), ".")
+    zero = (text == "-0") | (text == "0") | (text == "")
+    dotted = np.where(np.strings.find(text, ".") >= 0, text, np.strings.add(text, "."))
+    return np.where(zero, "0.", dotted).reshape(np.shape(x))
+
+
+def _f_units(feed_mm_s: np.ndarray) -> np.ndarray:
+    """:func:`_f_word`'s whole units of 10^-F_DECIMALS mm/min of every feed."""
+    scaled = np.asarray(feed_mm_s, dtype=float) * 60.0 * 10**F_DECIMALS
+    units = np.floor(scaled)
+    return (units + (scaled - units > 1.0 - 1e-9)).astype(np.int64)
+
+
+def _g1_blocks(points_mm: np.ndarray, feed_mm_s: np.ndarray) -> list[str]:
+    """``G1 X.. Y.. Z..`` per point, with the F word where it changes (the first has one)."""
+    if not len(points_mm):
+        return []
+    xyz = _nums(points_mm)
+    lines = np.strings.add(np.strings.add(np.strings.add(np.strings.add(np.strings.add(
+        "G1 X", xyz[:, 0]), " Y"), xyz[:, 1]), " Z"), xyz[:, 2])
+    units = _f_units(feed_mm_s)
+    new = np.concatenate([[True], units[1:] != units[:-1]])
+    words = np.zeros(units.size, dtype="<U24")
+    words[new] = [f" F{u / 10**F_DECIMALS:.{F_DECIMALS}f}" for u in units[new].tolist()]
+    return np.strings.add(lines, words).tolist()
+
+
 def _f_word(feed_mm_s: float) -> str:
     """F in mm/min, rounded down to :data:`F_DECIMALS` (never above the feed given)."""
     scaled = feed_mm_s * 60.0 * 10**F_DECIMALS
@@ -181,11 +211,7 @@ def gcode_text(positions_mm: np.ndarray, target_m_s: np.ndarray, line_sample: np
     xyz = lambda q: " ".join(f"{a}{_num(v)}" for a, v in zip("XYZ", q, strict=True))  # noqa: E731
     out.append(f"G0 {xyz(start + [0.0, 0.0, clearance_mm])}")
     out.append(f"G1 {xyz(start)} {_f_word(PLUNGE_FEED_MM_S)}")
-    last_f = None
-    for i in np.flatnonzero(ends):
-        f_word = _f_word(feeds[piece_of[i]] * MM_PER_M)
-        out.append(f"G1 {xyz(p[i])}" + ("" if f_word == last_f else f" {f_word}"))
-        last_f = f_word
+    out += _g1_blocks(p[ends], feeds[piece_of[ends]] * MM_PER_M)
     out.append(f"G0 {xyz(end + [0.0, 0.0, clearance_mm])}")
     out += ["M30", "%"]
     return "\n".join(out) + "\n"

@@ -13,6 +13,8 @@ from feedopt.errors import InputError
 from feedopt.export.gcode_out import (
     FEED_TOLERANCE,
     _f_word,
+    _g1_blocks,
+    _num,
     feed_pieces,
     gcode_text,
     law_feed_targets,
@@ -188,3 +190,25 @@ def test_a_finely_sampled_arc_gets_chords_within_the_tolerance_not_one_per_sampl
     idx = np.flatnonzero(kept)
     half = np.diff(t[idx]) / 2
     assert np.max(r * (1 - np.cos(half))) <= CHORD_TOLERANCE_MM * 1.05
+
+
+_COORD = st.one_of(st.floats(-1e5, 1e5, allow_nan=False), st.sampled_from(
+    [0.0, -0.0, -0.00004, 0.00005, -0.00005, 1.0, -1.0, 100.0, 0.1, 12.34565, 1e-7, -1e-7]))
+
+
+@settings(max_examples=200, deadline=None)
+@given(points=st.lists(st.tuples(_COORD, _COORD, _COORD), min_size=1, max_size=30),
+       feeds=st.lists(st.floats(1e-3, 1e3, allow_nan=False), min_size=30, max_size=30))
+def test_g1_blocks_are_the_block_by_block_text(points, feeds):
+    """The array formatting of the G1 blocks against the block-by-block reference (_num and
+    _f_word on each block, F where its text changes)."""
+    p = np.array(points, dtype=float)
+    f = np.array(feeds[:len(points)], dtype=float)
+    f[1::3] = f[0::3][:f[1::3].size]  # repeated feeds: F words left out
+    ref, last = [], None
+    for q, feed in zip(p, f, strict=True):
+        word = _f_word(feed)
+        ref.append("G1 " + " ".join(f"{a}{_num(v)}" for a, v in zip("XYZ", q, strict=True))
+                   + ("" if word == last else f" {word}"))
+        last = word
+    assert _g1_blocks(p, f) == ref
