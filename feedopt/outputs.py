@@ -211,7 +211,7 @@ def write_outputs(
     ``times`` (optional) receives the wall time [s] of ``("export", law)`` (controller
     samples and every exporter of the law) and ``("report", "")`` (the report is drawn in a
     forked child while the exporters write: its row is the wait after them). ``drawing``: a
-    child started with :func:`feedopt.runner.report_worker` before planning, which has
+    child started with :func:`feedopt.report.worker.report_worker` before planning, which has
     imported the plotting libraries meanwhile (else one is forked here). ``progress``: the
     run's progress (a bar over the exported laws on a terminal).
     """

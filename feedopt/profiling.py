@@ -4,9 +4,10 @@ and progress bars for long stages."""
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Protocol
 
 Progress = Callable[[str], None]
 
@@ -122,3 +123,29 @@ def peak_memory_bytes(children: bool = False) -> int:
     who = resource.RUSAGE_CHILDREN if children else resource.RUSAGE_SELF
     peak = resource.getrusage(who).ru_maxrss
     return int(peak if sys.platform == "darwin" else peak * 1024)
+
+
+class LawTimes(Protocol):
+    """What :func:`run_profile` reads of a law's result (:class:`feedopt.run_data.LawResult`)."""
+
+    planning_time: float
+    verification_time: float
+
+
+def run_profile(stage_times: Mapping[str, float], results: Mapping[str, LawTimes],
+                output_times: Mapping[tuple[str, str], float], total: float,
+                samples: int) -> RunProfile:
+    """A run's stage and per-law times in pipeline order: the prepared stages, plan, verify
+    and export per law, the report, and the rest of ``total`` [s] as "other"."""
+    rows = [StageTiming(stage, t) for stage, t in stage_times.items()]
+    for law, res in results.items():
+        rows += [StageTiming("plan", res.planning_time, law),
+                 StageTiming("verify", res.verification_time, law)]
+        if ("export", law) in output_times:
+            rows.append(StageTiming("export", output_times[("export", law)], law))
+    if ("report", "") in output_times:
+        rows.append(StageTiming("report", output_times[("report", "")]))
+    rows.append(StageTiming("other", max(0.0, total - sum(r.seconds for r in rows))))
+    return RunProfile(rows=tuple(rows), total_s=total, peak_memory_bytes=peak_memory_bytes(),
+                      child_peak_memory_bytes=peak_memory_bytes(children=True),
+                      samples=samples)

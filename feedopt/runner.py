@@ -1,49 +1,45 @@
 """The scenario runner: the only place that wires the stages together (design.md).
 
-scenario -> geometry -> cell placement -> process -> robot -> schedule (bound, laws) ->
-verify -> export -> report. Each stage exposes the one function called here and does its
-own work; this module only passes results along, times the stages and reports progress.
-Outputs are written to a staging folder beside the destination and moved into place only
-when everything succeeded (:mod:`feedopt.outdir`).
+scenario -> geometry -> cell placement -> process -> robot (redundancy) -> schedule (bound)
+-> planning (laws, verify) -> compensation -> outputs (export, report). Each stage exposes
+the one function called here and does its own work; this module only passes results along,
+times the stages and reports progress. Outputs are written to a staging folder beside the
+destination and moved into place only when everything succeeded (:mod:`feedopt.outdir`).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-from feedopt import background, outdir, outputs
+from feedopt import outdir, outputs
 from feedopt.cell import fixed_x_axes, place_path
 from feedopt.compensate import compensate as compensate
-from feedopt.errors import InputError, LawNotApplicable
-from feedopt.geometry.path import Path as ToolPath
-from feedopt.geometry.path import PathPoints, check_sample_count
-from feedopt.geometry.program_path import segment_labels
-from feedopt.geometry.stage import path_from_section
+from feedopt.errors import InputError
+from feedopt.geometry.stage import (
+    air_samples,
+    path_from_section,
+    path_warnings,
+    sample_path,
+    segment_names,
+)
 from feedopt.outputs import write_outputs as write_outputs
 from feedopt.parallel import single_threaded_blas
-from feedopt.process.program import (
-    apply_program,
-)
-from feedopt.process.program_stock import resolve_program_stock
-from feedopt.process.program_tool import check_program_tool
-from feedopt.process.stage import feed_range_warnings, process_along_path
+from feedopt.planning import law_workers as law_workers
+from feedopt.planning import plan_and_verify as plan_and_verify
+from feedopt.process.program import settings_from_program
+from feedopt.process.program_stock import program_stock
+from feedopt.process.stage import bound_feed_warnings, process_along_path, process_warnings
 from feedopt.process.tool import load_tool
-from feedopt.profiling import (
-    RunProfile,
-    StageTiming,
-    peak_memory_bytes,
-    progress_bar,
-)
+from feedopt.profiling import Progress, progress_bar, run_profile
 from feedopt.profiling import stderr_progress as _stderr_progress
-from feedopt.robot.ik import UnreachableError
+from feedopt.report.worker import report_worker
 from feedopt.robot.model import RobotModel, load_robot
-from feedopt.robot.placement_search import suggest_workpiece_position
+from feedopt.robot.placement_search import suggesting_position
+from feedopt.robot.redundancy_stage import check_redundancy, optimise_along_path
 from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
 from feedopt.robot.start import start_joints as robot_start_joints
 from feedopt.run_data import Front, LawResult, Prepared, RunResult
@@ -54,27 +50,12 @@ from feedopt.scenario import (
     scenario_input_files,
     scenario_warnings,
 )
-from feedopt.schedule.laws import LAWS, plan_law, planning_order
-from feedopt.schedule.stage import interior_stop_indices, schedule_problem
-from feedopt.schedule.trajectory import Trajectory
+from feedopt.schedule.stage import ScheduleInputs, interior_stop_indices, schedule_problem
 from feedopt.units import MM, MS
-from feedopt.verify import Verdict, replay_all
-
-Progress = Callable[[str], None]
 
 
-def _segment_names(path: ToolPath) -> list[str]:
-    """Readable name of each path segment for messages ("line 3", "circle blend of corner 2",
-    "arc at line 88 (N880)" on a program)."""
-    if path.moves is not None:
-        return segment_labels(path)
-    return [f"line {i}" if seg.kind == "line" else
-            f"{seg.kind} blend of corner {seg.corner_index}" for i, seg in enumerate(path.segments)]
-
-
-def _sample(path: ToolPath, spacing: float) -> PathPoints:
-    check_sample_count(path.length, spacing, "path.spacing_mm")
-    return path.sample(spacing)
+def _quiet(_message: str) -> None:
+    """No progress (the redundancy search's coarse sampling)."""
 
 
 def prepare_front(
@@ -86,40 +67,29 @@ def prepare_front(
     """Run the geometry, cell and process stages of ``scenario``."""
     times: dict[str, float] = {}
     spacing = (spacing_mm or scenario.path.spacing_mm) * MM
+    files = partial(resolve, base_dir)
 
     t0 = time.perf_counter()
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
-    program_notes: list[str] = []
-    if path.moves is not None:
-        scenario, program_notes = apply_program(scenario, path.moves, scenario.path.file)
-    samples = _sample(path, spacing)
-    if scenario.stock is not None and scenario.stock.from_program:
-        scenario, stock_note = resolve_program_stock(
-            scenario, 0.5 * load_tool(resolve(base_dir, scenario.tool, "tool file")).diameter,
-            samples, path.moves, spacing)
+    scenario, program_notes = settings_from_program(scenario, path)
+    samples = sample_path(path, spacing)
+    scenario, stock_note = program_stock(scenario, files, samples, path.moves, spacing)
+    if stock_note is not None:
         progress(stock_note)
     for note in scenario.fit_notes():  # a fitted input, before any result it shapes
         progress(f"fit: {note}")
-    warnings = scenario_warnings(scenario) + list(path.notes) + program_notes
-    if path.dropped_waypoints:
-        shown = ", ".join(str(i) for i in path.dropped_waypoints[:10])
-        more = len(path.dropped_waypoints) - 10
-        warnings.append(f"path: dropped {len(path.dropped_waypoints)} repeated waypoint(s) "
-                        f"(indices {shown}{f' and {more} more' if more > 0 else ''}), as "
-                        "path.drop_repeated_waypoints asks")
+    warnings = scenario_warnings(scenario) + path_warnings(path) + program_notes
     times["geometry"] = time.perf_counter() - t0
     progress(f"[1/5] geometry: {len(path.segments)} segments, {path.length / MM:.2f} mm, "
              f"{samples.s.size} samples ({times['geometry']:.2f} s)")
 
     t0 = time.perf_counter()
     wp = scenario.workpiece
-    air = (None if path.moves is None
-           else path.moves.category[path.moves.index_at(samples.s)] != "cut")
-    placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis, air=air)
-    process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
-                                 samples, _segment_names(path), moves=path.moves)
-    warnings += check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
-    warnings += process.warnings
+    placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis,
+                           air=air_samples(path, samples.s))
+    process = process_along_path(scenario, files, samples, segment_names(path),
+                                 moves=path.moves)
+    warnings += process_warnings(process, path, scenario)
     times["process"] = time.perf_counter() - t0
     how = ("engagement from the stock" if process.material is not None
            else f"{scenario.cut.type} cut")
@@ -146,14 +116,15 @@ def prepare(
 
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
-    _check_redundancy(robot, scenario)
+    check_redundancy(robot, scenario.robot.redundancy)
     x_axes = fixed_x_axes(placement, scenario.robot.fix_tool_rotation)
-    with progress_bar(progress, "[3/5] robot IK") as bar, _suggesting_position(
-            robot, scenario, samples):
+    q_start = start_joints(robot, scenario)
+    with progress_bar(progress, "[3/5] robot IK") as bar, suggesting_position(
+            robot, samples.position, scenario.workpiece, q_start,
+            scenario.robot.fix_tool_rotation):
         tcp = TcpPath(samples.s, placement.positions, placement.tool_axes, x_axes=x_axes,
                       breaks=interior_stop_indices(path.stops, samples.s))
-        along = robot_along_path(robot, tcp, start_joints(robot, scenario),
-                                 scenario.robot.stiffness, progress=bar)
+        along = robot_along_path(robot, tcp, q_start, scenario.robot.stiffness, progress=bar)
     warnings += along.warnings
     blockers = early_blockers(robot, path)
     times["robot"] = time.perf_counter() - t0
@@ -164,33 +135,24 @@ def prepare(
     with progress_bar(progress, "[4/5] deflection bound") as bar:
         schedule = schedule_problem(scenario, process, robot, along, placement, samples, path,
                                     progress=bar)
+    times["bounds"] = time.perf_counter() - t0
     redundancy, nearest_compliance = None, None
     if scenario.robot.redundancy == "optimise":
-        times["bounds"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        redundancy = _optimise_redundancy(front, base_dir, robot, along, progress)
+        redundancy = _redundancy(front, base_dir, robot, along, progress)
         nearest_compliance = along.compliance
         along, schedule = redundancy.along, redundancy.schedule
         times["redundancy"] = time.perf_counter() - t0
         progress(f"[4/5] redundancy: {redundancy.describe()}")
-        t0 = time.perf_counter() - times["bounds"]
-    v_max = schedule.bound.v_max
-    warnings += feed_range_warnings(process.table, [
-        ("the lowest feed of the bound", float(np.min(v_max[1:-1] if v_max.size > 2 else v_max)))
-    ], scenario.cut.spindle_rpm, process.tool)
+    t0 = time.perf_counter()
+    warnings += bound_feed_warnings(process, schedule.bound.v_max, scenario.cut.spindle_rpm)
     outputs.check_output_size(schedule.problem.lower_bound_time(),
                               scenario.export.rsi_cycle_ms * MS)
-    times["bounds"] = time.perf_counter() - t0
+    times["bounds"] += time.perf_counter() - t0
     warnings += [b.reason for b in blockers.values() if b.warn]
     for w in warnings:
         progress(f"warning: {w}")
-    share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()
-                      if v > 0)
-    if path.moves is not None:  # where a program's bound is lowest, by its line
-        share += f"; lowest at {path.moves.label(path.moves.lowest_cut(samples.s, v_max)[1])}"
-    progress(f"[4/5] bounds: v_max {v_max.min() / MM:.3f}-{v_max.max() / MM:.3f} "
-             f"mm/s, T* = {schedule.problem.lower_bound_time():.2f} s; active: {share} "
-             f"({times['bounds']:.2f} s)")
+    progress(_bounds_line(schedule, path, samples.s, times["bounds"]))
     return Prepared(scenario=scenario, base_dir=base_dir, path=path, samples=samples,
                     placement=placement, process=process, robot=robot, along=along,
                     schedule=schedule, stage_times=times, warnings=warnings,
@@ -198,206 +160,33 @@ def prepare(
                     nearest_compliance=nearest_compliance)
 
 
-@contextmanager
-def _suggesting_position(robot: RobotModel, scenario: Scenario, samples: PathPoints):
-    """An unreachable sample's error, with a workpiece position that reaches the path (or
-    "none found")."""
-    try:
-        yield
-    except UnreachableError as exc:
-        wp = scenario.workpiece
-        hint = suggest_workpiece_position(
-            robot, samples.position, wp.position_mm, wp.rpy_deg, wp.tool_axis,
-            start_joints(robot, scenario),
-            scenario.robot.fix_tool_rotation)
-        raise InputError(f"{exc}; {hint}") from None
-
-
-def _optimise_redundancy(front: Front, base_dir: Path, robot: RobotModel,
-                         nearest: RobotAlongPath, progress: Progress):
-    """``robot.redundancy: optimise``: the rotation about the tool axis psi(s) that lowers T*
-    (:func:`feedopt.robot.redundancy.optimise_redundancy`), searched on a coarser sampling of
-    the same path and confirmed on the run's."""
-    from feedopt.robot.redundancy import RedundancyOptions, RedundancyTask, optimise_redundancy
-
-    sc = front.scenario
-    opts = sc.robot.redundancy_options
-    coarse = prepare_front(sc, base_dir, lambda _m: None, spacing_mm=opts.search_spacing_mm)
-    q_start = start_joints(robot, sc)
-    coarse_nearest = robot_along_path(robot, TcpPath(coarse.samples.s,
-                                                     coarse.placement.positions,
-                                                     coarse.placement.tool_axes),
-                                      q_start, sc.robot.stiffness)
-
-    def task(f: Front, along: RobotAlongPath) -> RedundancyTask:
-        return RedundancyTask(
-            f.samples.s, f.placement.positions, f.placement.tool_axes,
-            lambda a: schedule_problem(f.scenario, f.process, robot, a, f.placement,
-                                       f.samples, f.path), along)
-
-    options = RedundancyOptions(objective=opts.objective, knots=opts.knots,
-                                max_evaluations=opts.max_evaluations,
-                                path_acceleration=opts.path_acceleration)
+def _redundancy(front: Front, base_dir: Path, robot: RobotModel, nearest: RobotAlongPath,
+                progress: Progress):
+    """``robot.redundancy: optimise``: the search on the path sampled again at the search
+    spacing, confirmed on the run's (:func:`optimise_along_path`)."""
+    spacing_mm = front.scenario.robot.redundancy_options.search_spacing_mm
+    coarse = prepare_front(front.scenario, base_dir, _quiet, spacing_mm=spacing_mm)
     with progress_bar(progress, "[4/5] redundancy") as bar:
-        if robot.dof == 7:
-            from feedopt.robot.extra_axis import choose_extra_axis
-
-            return choose_extra_axis(robot, robot.held_axis(), task(coarse, coarse_nearest),
-                                     task(front, nearest), sc.robot.stiffness, options, bar)
-        return optimise_redundancy(robot, task(coarse, coarse_nearest), task(front, nearest),
-                                   sc.robot.stiffness, options, progress=bar)
+        return optimise_along_path(robot, coarse, front, nearest, bar)
 
 
-def plan_and_verify(
-    prepared: Prepared, laws: list[str], progress: Progress = _stderr_progress,
-    workers: dict[str, background.Prestarted] | None = None,
-) -> dict[str, LawResult]:
-    """Run each timing law (registry order), then replay-verify all of them in one pass.
-
-    A law with a child in ``workers`` (:func:`law_workers`, its slow imports done) is sent
-    there and planned beside the laws planned here; its planning time is the child's own, so
-    it overlaps theirs.
-    """
-    context: dict[str, Trajectory] = {}
-    planned: dict[str, Trajectory] = {}
-    planning_time: dict[str, float] = {}
-    options = prepared.scenario.schedule
-    sent: dict[str, background.Prestarted] = {}
-    order = planning_order(laws)
-    workers = dict(workers or {})
-    if prepared.problem.n > outputs.CHILD_COPY_MAX_SAMPLES:  # a copy would cost more than saved
-        for worker in workers.values():
-            worker.join(cancel=True)
-        workers = {}
-    with progress_bar(progress, "[5/5] planning", " laws", False) as bar:
-        done = 0
-        for law in order:
-            worker = workers.pop(law, None)
-            if worker is not None:
-                worker.submit(_plan_law_timed, law, prepared.problem,
-                              {k: context[k] for k in LAWS[law].uses_context if k in context},
-                              options.options_for(law))
-                sent[law] = worker
-                continue
-            t0 = time.perf_counter()
-            try:
-                planned[law] = plan_law(law, prepared.problem, context,
-                                        options=options.options_for(law))
-            except LawNotApplicable as exc:
-                prepared.declined[law] = str(exc)
-                progress(f"[5/5] {law}: declined: {exc}")
-            else:
-                planning_time[law] = time.perf_counter() - t0
-            done += 1
-            if bar is not None:
-                bar(done, len(order))
-        for law, worker in sent.items():
-            try:
-                planned[law], planning_time[law] = worker.join(reraise=True)
-            except LawNotApplicable as exc:
-                prepared.declined[law] = str(exc)
-                progress(f"[5/5] {law}: declined: {exc}")
-            else:
-                context[law] = planned[law]
-            done += 1
-            if bar is not None:
-                bar(done, len(order))
-    planned = {law: planned[law] for law in order if law in planned}  # registry order
-
-    results: dict[str, LawResult] = {}
-    t_star = prepared.problem.lower_bound_time()
-    with progress_bar(progress, "[5/5] replay") as bar:
-        replayed = replay_all(planned, prepared.problem, prepared.model, prepared.limit, bar)
-    for law, (ver, dt_verify) in replayed.items():
-        traj, dt = planned[law], planning_time[law]
-        results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt,
-                                 verification_time=dt_verify)
-        status = ver.verdict.value
-        if ver.verdict is Verdict.VERIFIED:
-            status += ": " + "; ".join(ver.export_blockers)
-        progress(f"[5/5] {law}: {traj.duration:.2f} s cycle ({traj.duration / t_star:.4f} T*), "
-                 f"max deflection {ver.max_deflection / MM:.4f} mm ({ver.deflection_ratio:.4f} "
-                 f"of limit), {status} ({dt:.2f} s)")
-        for problem in ver.problems:
-            progress(f"      ! {law}: {problem}")
-    return {law: results[law] for law in laws if law in results}
-
-
-def _check_redundancy(robot: RobotModel, scenario: Scenario) -> None:
-    """InputError for ``robot.redundancy: optimise`` on a robot it cannot search: a 6-axis
-    arm's is the rotation about the tool axis, a 7-axis robot's its extra axis
-    (:meth:`RobotModel.held_axis`), which a 7-joint arm must name."""
-    if scenario.robot.redundancy != "optimise" or robot.dof == 6:
-        return
-    if robot.dof == 7 and robot.held_axis() is None:
-        raise InputError(f"robot.redundancy: optimise holds the extra axis of a 7-axis robot; "
-                         f"robot {robot.name} does not say which joint it is: add "
-                         f"'extra_axis: <joint>' to its robot.yaml (one of "
-                         f"{', '.join(robot.joint_names)}; a KUKA LBR: its third joint, the "
-                         "controller's E1), or use redundancy: nearest")
-    if robot.dof > 7:
-        raise InputError(f"robot.redundancy: optimise searches one extra axis (6- and 7-axis "
-                         f"robots); robot {robot.name} has {robot.dof} joints: use redundancy: "
-                         "nearest (its extra axes follow the weighted nearest IK)")
+def _bounds_line(schedule: ScheduleInputs, path, s: np.ndarray, seconds: float) -> str:
+    """The progress line of the bound: its range, T*, the share of each active constraint
+    (a program: the line where it is lowest)."""
+    v_max = schedule.bound.v_max
+    share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()
+                      if v > 0)
+    if path.moves is not None:  # where a program's bound is lowest, by its line
+        share += f"; lowest at {path.moves.label(path.moves.lowest_cut(s, v_max)[1])}"
+    return (f"[4/5] bounds: v_max {v_max.min() / MM:.3f}-{v_max.max() / MM:.3f} "
+            f"mm/s, T* = {schedule.problem.lower_bound_time():.2f} s; active: {share} "
+            f"({seconds:.2f} s)")
 
 
 def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
     """``robot.start_configuration_deg`` as the URDF's joints [rad]
     (:func:`feedopt.robot.start.start_joints`)."""
     return robot_start_joints(robot, scenario.robot.start_configuration_deg)
-
-
-def _plan_law_timed(law: str, problem, context: dict[str, Trajectory], options
-                    ) -> tuple[Trajectory, float]:
-    """:func:`plan_law` in a law worker: the trajectory and the time it took [s]."""
-    t0 = time.perf_counter()
-    trajectory = plan_law(law, problem, dict(context), options=options)
-    return trajectory, time.perf_counter() - t0
-
-
-def _import_law(law: str) -> None:
-    import importlib
-
-    for name in (*LAWS[law].slow_imports, LAWS[law].module):
-        importlib.import_module(name)
-
-
-def law_workers(laws: list[str]) -> dict[str, background.Prestarted]:
-    """A child per requested law with slow imports (:attr:`LawSpec.slow_imports`: cvxpy for
-    ``convex``), forked now so that the imports happen on the other core while this one
-    prepares; :func:`plan_and_verify` sends each its law. Empty where fork is unavailable."""
-    if not background.fork_available():
-        return {}
-    return {law: background.prestart(partial(_import_law, law), f"planning {law}")
-            for law in dict.fromkeys(laws) if law in LAWS and LAWS[law].slow_imports}
-
-
-def _import_report() -> None:
-    import feedopt.report.html  # noqa: F401 - matplotlib and the figures, ~0.5 s
-    import feedopt.report.run  # noqa: F401
-
-
-def report_worker() -> background.Prestarted:
-    """A forked child that imports the report's plotting libraries now and draws the report
-    when :func:`write_outputs` sends it the run's data."""
-    return background.prestart(_import_report, "drawing the report")
-
-
-def _profile(prepared: Prepared, results: dict[str, LawResult],
-             output_times: dict[tuple[str, str], float], total: float) -> RunProfile:
-    """The run's stage and per-law times in pipeline order (RunProfile)."""
-    rows = [StageTiming(stage, t) for stage, t in prepared.stage_times.items()]
-    for law, res in results.items():
-        rows += [StageTiming("plan", res.planning_time, law),
-                 StageTiming("verify", res.verification_time, law)]
-        if ("export", law) in output_times:
-            rows.append(StageTiming("export", output_times[("export", law)], law))
-    if ("report", "") in output_times:
-        rows.append(StageTiming("report", output_times[("report", "")]))
-    rows.append(StageTiming("other", max(0.0, total - sum(r.seconds for r in rows))))
-    return RunProfile(rows=tuple(rows), total_s=total, peak_memory_bytes=peak_memory_bytes(),
-                      child_peak_memory_bytes=peak_memory_bytes(children=True),
-                      samples=int(prepared.samples.s.size))
 
 
 def run_scenario(
@@ -430,8 +219,9 @@ def run_scenario(
             scenario, base_dir, dest, laws, export_unverified, spacing_mm, report, progress)
     return RunResult(out_dir=out, prepared=prepared, laws=results, summary=summary,
                      table=comparison_table([summary], [scenario.name]),
-                     profile=_profile(prepared, results, output_times,
-                                      time.perf_counter() - t_start))
+                     profile=run_profile(prepared.stage_times, results, output_times,
+                                         time.perf_counter() - t_start,
+                                         int(prepared.samples.s.size)))
 
 
 def _run_in(scenario: Scenario, base_dir: Path, dest: outdir.Destination, laws: list[str],
@@ -473,23 +263,20 @@ def validate_scenario(scenario_path: str | Path) -> str:
     from feedopt.process.coefficients import load_coefficients
 
     scenario, base_dir = load_scenario(scenario_path)
-    tool = load_tool(resolve(base_dir, scenario.tool, "tool file"))  # files in this order
-    load_coefficients(resolve(base_dir, scenario.material, "material file"))
-    robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
-    _check_redundancy(robot, scenario)
+    files = partial(resolve, base_dir)
+    load_tool(files(scenario.tool, "tool file"))  # files in this order
+    load_coefficients(files(scenario.material, "material file"))
+    robot = load_robot(files(scenario.robot.directory, "robot directory"))
+    check_redundancy(robot, scenario.robot.redundancy)
     start_joints(robot, scenario)  # one value per joint, within the limits, as run checks
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
-    if path.moves is not None:
-        scenario, _ = apply_program(scenario, path.moves, scenario.path.file)
+    scenario, _ = settings_from_program(scenario, path)
     spacing = scenario.path.spacing_mm * MM
-    samples = _sample(path, spacing)
-    if scenario.stock is not None and scenario.stock.from_program:
-        scenario, _ = resolve_program_stock(scenario, 0.5 * tool.diameter, samples,
-                                            path.moves, spacing)
-    process = process_along_path(scenario, lambda rel, what: resolve(base_dir, rel, what),
-                                 samples, _segment_names(path), moves=path.moves)
-    notes = check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
-    notes += process.warnings
+    samples = sample_path(path, spacing)
+    scenario, _ = program_stock(scenario, files, samples, path.moves, spacing)
+    process = process_along_path(scenario, files, samples, segment_names(path),
+                                 moves=path.moves)
+    notes = process_warnings(process, path, scenario)
     stock = ""
     if process.material is not None:
         zmap = process.material.before

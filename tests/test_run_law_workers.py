@@ -1,4 +1,4 @@
-"""Laws planned in a child started before planning (LawSpec.slow_imports, runner.law_workers):
+"""Laws planned in a child started before planning (LawSpec.slow_imports, planning.law_workers):
 the same trajectory as planned here, declines and bad input as if planned here."""
 
 import dataclasses
@@ -11,7 +11,8 @@ import pytest
 
 from feedopt import background
 from feedopt.errors import InputError, LawNotApplicable
-from feedopt.runner import law_workers, plan_and_verify, prepare, run_scenario
+from feedopt.planning import law_workers, plan_and_verify
+from feedopt.runner import prepare, run_scenario
 from feedopt.scenario import load_scenario
 from feedopt.schedule.laws import LAWS, LawSpec, register_law
 

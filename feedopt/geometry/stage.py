@@ -18,8 +18,13 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.gcode import read_gcode
-from feedopt.geometry.path import Path, build_lipb_path
-from feedopt.geometry.program_path import ProgramPath, ProgramPathOptions, program_path
+from feedopt.geometry.path import Path, PathPoints, build_lipb_path, check_sample_count
+from feedopt.geometry.program_path import (
+    ProgramPath,
+    ProgramPathOptions,
+    program_path,
+    segment_labels,
+)
 from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
 from feedopt.geometry.waypoints import read_waypoints_csv
 from feedopt.units import MM
@@ -125,3 +130,40 @@ def path_from_section(section: Any, base_dir: FilePath, *,
     except InputError as exc:
         raise InputError(f"path ({section.generator}, blend {section.blend} "
                          f"{section.blend_size_mm:g} mm): {exc}") from None
+
+
+def sample_path(path: Path, spacing: float) -> PathPoints:
+    """The path sampled every ``spacing`` [m] of arc length, after refusing a sample count
+    past the cap (named as ``path.spacing_mm``)."""
+    check_sample_count(path.length, spacing, "path.spacing_mm")
+    return path.sample(spacing)
+
+
+def segment_names(path: Path) -> list[str]:
+    """Readable name of each path segment for messages ("line 3", "circle blend of corner 2",
+    "arc at line 88 (N880)" on a program)."""
+    if path.moves is not None:
+        return segment_labels(path)
+    return [f"line {i}" if seg.kind == "line" else
+            f"{seg.kind} blend of corner {seg.corner_index}" for i, seg in enumerate(path.segments)]
+
+
+def path_warnings(path: Path) -> list[str]:
+    """What the run should say about the path: the notes of a program's reader and smoothing,
+    and the repeated waypoints dropped (``path.drop_repeated_waypoints``)."""
+    warnings = list(path.notes)
+    if path.dropped_waypoints:
+        shown = ", ".join(str(i) for i in path.dropped_waypoints[:10])
+        more = len(path.dropped_waypoints) - 10
+        warnings.append(f"path: dropped {len(path.dropped_waypoints)} repeated waypoint(s) "
+                        f"(indices {shown}{f' and {more} more' if more > 0 else ''}), as "
+                        "path.drop_repeated_waypoints asks")
+    return warnings
+
+
+def air_samples(path: Path, s: np.ndarray) -> np.ndarray | None:
+    """(n,) bool: the samples at ``s`` [m] on a program's moves that do not cut (rapids,
+    links, plunges); None on a path without moves (every sample cuts)."""
+    if path.moves is None:
+        return None
+    return path.moves.category[path.moves.index_at(s)] != "cut"

@@ -69,6 +69,15 @@ def apply_program(scenario, moves, source: str):
     return updated, warnings
 
 
+def settings_from_program(scenario, path):
+    """:func:`apply_program` on a program path (``path.moves``, read from
+    ``scenario.path.file``): ``(scenario, warnings)``; a path without moves: the scenario
+    unchanged, no warnings."""
+    if path.moves is None:
+        return scenario, []
+    return apply_program(scenario, path.moves, scenario.path.file)
+
+
 def unmodelled_plunge_moves(moves, s: np.ndarray, plunge: np.ndarray | None) -> list[int]:
     """Indices of the program moves holding samples ``s`` that plunge into material without
     a plunge model (``plunge``: per sample, from the process stage), in program order."""

@@ -9,11 +9,14 @@ sample spacing (the path is known at the samples only). The box is stated in the
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.tool import load_tool
 from feedopt.units import MM
 
 
@@ -79,3 +82,14 @@ def resolve_program_stock(scenario, tool_radius: float, samples, moves, spacing:
                              tool_radius, spacing)
     stock = section.model_copy(update={"box_mm": list(made.box_mm), "from_program": False})
     return scenario.model_copy(update={"stock": stock}), made.note
+
+
+def program_stock(scenario, resolve: Callable[[str, str], Path], samples, moves,
+                  spacing: float):
+    """:func:`resolve_program_stock` with the radius of the scenario's tool file
+    (``resolve(relative, what)`` finds it): ``(scenario, note)``, or ``(scenario, None)``
+    unchanged unless the scenario asks for ``stock.from_program``."""
+    if scenario.stock is None or not scenario.stock.from_program:
+        return scenario, None
+    radius = 0.5 * load_tool(resolve(scenario.tool, "tool file")).diameter
+    return resolve_program_stock(scenario, radius, samples, moves, spacing)

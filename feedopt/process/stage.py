@@ -30,6 +30,7 @@ from feedopt.process.engagement import (
 from feedopt.process.material import MaterialAlongPath, engagement_from_stock
 from feedopt.process.path_radius import check_path_radius
 from feedopt.process.plunge import check_plunge_depth
+from feedopt.process.program_tool import check_program_tool
 from feedopt.process.tool import Tool, load_tool
 from feedopt.units import MM
 
@@ -96,6 +97,22 @@ def feed_range_warnings(table: CoefficientTable, feeds: list[tuple[str, float]],
         if text:
             out.append(f"{what} ({v / MM:.4g} mm/s): {text}")
     return out
+
+
+def bound_feed_warnings(process: ProcessAlongPath, v_max: np.ndarray, rpm: float) -> list[str]:
+    """A warning when the lowest feed of the bound ``v_max`` [m/s] (the two end samples
+    excluded) leaves the calibrated range of feeds per tooth at ``rpm``."""
+    lowest = float(np.min(v_max[1:-1] if v_max.size > 2 else v_max))
+    return feed_range_warnings(process.table, [("the lowest feed of the bound", lowest)], rpm,
+                               process.tool)
+
+
+def process_warnings(process: ProcessAlongPath, path, scenario) -> list[str]:
+    """The warnings of the process stage: the program's tool comment against the scenario's
+    tool file (:func:`~feedopt.process.program_tool.check_program_tool`), then the stage's
+    own (:attr:`ProcessAlongPath.warnings`)."""
+    return (check_program_tool(path, process.tool, scenario.path.file, scenario.tool)
+            + list(process.warnings))
 
 
 #: Depth below the stock top [m] under which a tool tip counts as in the material (1 nm).

@@ -9,7 +9,9 @@ reached is returned; None when none is (the caller says so: "none found").
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +58,7 @@ def suggest_workpiece_position(robot, position_w: np.ndarray, position_mm, rpy_d
     """The sentence to add to an unreachable-sample error: a ``workpiece.position_mm`` at
     which the IK reaches a spread of the path's samples (``position_w``: tool tips in the
     workpiece frame [m]), or that none of the tried positions does."""
-    from feedopt.cell import workpiece_transform
+    from feedopt.robot.frames import workpiece_transform
     from feedopt.robot.ik import solve_path_ik
 
     idx = subset(position_w.shape[0])
@@ -81,3 +83,21 @@ def suggest_workpiece_position(robot, position_w: np.ndarray, position_mm, rpy_d
     shown = ", ".join(f"{v:.0f}" for v in found)
     return (f"workpiece.position_mm: [{shown}] reaches {idx.size} samples spread over the "
             "whole path (IK checked there, not on every sample)")
+
+
+@contextmanager
+def suggesting_position(robot, position_w: np.ndarray, workpiece: Any, q_start: np.ndarray,
+                        fix_rotation: bool) -> Iterator[None]:
+    """An unreachable sample's error (:class:`feedopt.robot.ik.UnreachableError`) raised in
+    the block, as an InputError with a workpiece position that reaches the path
+    (:func:`suggest_workpiece_position`, or "none found"). ``workpiece`` is the scenario's
+    section (``position_mm``, ``rpy_deg``, ``tool_axis``)."""
+    from feedopt.robot.ik import UnreachableError
+
+    try:
+        yield
+    except UnreachableError as exc:
+        hint = suggest_workpiece_position(
+            robot, position_w, workpiece.position_mm, workpiece.rpy_deg, workpiece.tool_axis,
+            q_start, fix_rotation)
+        raise InputError(f"{exc}; {hint}") from None

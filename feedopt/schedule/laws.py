@@ -58,7 +58,7 @@ class LawSpec:
     slow_imports : tuple of str
         Modules whose import costs a noticeable part of a run (cvxpy: ~0.5 s): the runner
         imports them in a child process started before planning, which then plans this law
-        beside the others (:func:`feedopt.runner.plan_and_verify`).
+        beside the others (:func:`feedopt.planning.plan_and_verify`).
     """
 
     name: str
