@@ -16,6 +16,7 @@ task's function and arguments then go through a pipe, pickled.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import pickle
 import signal
@@ -93,9 +94,23 @@ def start(function: Callable[[], Any], what: str) -> Background:
 _ANSWER_FD: int | None = None
 
 
+def release_free_heap() -> None:
+    """Give the heap that Python and numpy have freed back to the system (glibc's
+    ``malloc_trim``; nothing elsewhere). A child forked afterwards does not share those
+    pages, and the run's resident memory is what it holds: on the 70k-line raster the
+    parent's 1321 MB at the output stage are 1077 MB after it."""
+    try:
+        libc = ctypes.CDLL(None)
+        trim = libc.malloc_trim
+    except (OSError, AttributeError):  # not glibc
+        return
+    trim(0)
+
+
 def _fork(function: Callable[[], Any], what: str, close_in_child: tuple[int, ...]
           ) -> Background:
     global _ANSWER_FD
+    release_free_heap()
     sys.stdout.flush()
     sys.stderr.flush()
     read_fd, write_fd = os.pipe()
