@@ -18,6 +18,7 @@ own threads and children need.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
@@ -110,3 +111,31 @@ def single_threaded_blas() -> Iterator[None]:
 
     with threadpool_limits(limits=1, user_api="blas"):
         yield
+
+
+def beside(function: Callable[[], R]) -> Callable[[], R]:
+    """Start ``function()`` in a thread beside the caller when there are several worker
+    threads (:func:`worker_threads`), else call it at once. Returns ``wait()``: its value, or
+    its exception raised in the caller. The thread is a daemon: a caller that fails first
+    does not wait for it at exit."""
+    if worker_threads() == 1:
+        value = function()
+        return lambda: value
+    box: dict[str, object] = {}
+
+    def run() -> None:
+        try:
+            box["value"] = function()
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller by wait()
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, name="feedopt-beside", daemon=True)
+    thread.start()
+
+    def wait() -> R:
+        thread.join()
+        if "error" in box:
+            raise box["error"]  # type: ignore[misc]
+        return box["value"]  # type: ignore[return-value]
+
+    return wait

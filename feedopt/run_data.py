@@ -118,7 +118,7 @@ class Front:
     path: ToolPath
     samples: PathPoints
     placement: Placement
-    process: ProcessAlongPath
+    process: ProcessAlongPath | None  # None only between the cell and process stages (runner)
     warnings: list[str]
     times: dict[str, float]
 

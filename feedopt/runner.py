@@ -10,6 +10,7 @@ destination and moved into place only when everything succeeded (:mod:`feedopt.o
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
@@ -27,7 +28,7 @@ from feedopt.geometry.stage import (
     segment_names,
 )
 from feedopt.outputs import write_outputs as write_outputs
-from feedopt.parallel import single_threaded_blas
+from feedopt.parallel import beside, single_threaded_blas
 from feedopt.planning import law_workers as law_workers
 from feedopt.planning import plan_and_verify as plan_and_verify
 from feedopt.process.program import settings_from_program
@@ -50,7 +51,7 @@ from feedopt.scenario import (
     scenario_input_files,
     scenario_warnings,
 )
-from feedopt.schedule.stage import ScheduleInputs, interior_stop_indices, schedule_problem
+from feedopt.schedule.stage import bounds_line, interior_stop_indices, schedule_problem
 from feedopt.units import MM, MS
 
 
@@ -65,15 +66,20 @@ def prepare_front(
     spacing_mm: float | None = None,
 ) -> Front:
     """Run the geometry, cell and process stages of ``scenario``."""
+    return _process(_place(scenario, base_dir, progress, spacing_mm), base_dir, progress)
+
+
+def _place(scenario: Scenario, base_dir: Path, progress: Progress,
+           spacing_mm: float | None) -> Front:
+    """The geometry and cell stages: a :class:`Front` without its process stage."""
     times: dict[str, float] = {}
     spacing = (spacing_mm or scenario.path.spacing_mm) * MM
-    files = partial(resolve, base_dir)
-
     t0 = time.perf_counter()
     path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
     scenario, program_notes = settings_from_program(scenario, path)
     samples = sample_path(path, spacing)
-    scenario, stock_note = program_stock(scenario, files, samples, path.moves, spacing)
+    scenario, stock_note = program_stock(scenario, partial(resolve, base_dir), samples,
+                                         path.moves, spacing)
     if stock_note is not None:
         progress(stock_note)
     for note in scenario.fit_notes():  # a fitted input, before any result it shapes
@@ -82,38 +88,34 @@ def prepare_front(
     times["geometry"] = time.perf_counter() - t0
     progress(f"[1/5] geometry: {len(path.segments)} segments, {path.length / MM:.2f} mm, "
              f"{samples.s.size} samples ({times['geometry']:.2f} s)")
-
     t0 = time.perf_counter()
     wp = scenario.workpiece
     placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis,
                            air=air_samples(path, samples.s))
-    process = process_along_path(scenario, files, samples, segment_names(path),
-                                 moves=path.moves)
-    warnings += process_warnings(process, path, scenario)
     times["process"] = time.perf_counter() - t0
+    return Front(scenario=scenario, path=path, samples=samples, placement=placement,
+                 process=None, warnings=warnings, times=times)
+
+
+def _process(placed: Front, base_dir: Path, progress: Progress) -> Front:
+    """``placed`` with its process stage (tool, material, engagement along the path)."""
+    scenario, path, times = placed.scenario, placed.path, dict(placed.times)
+    t0 = time.perf_counter()
+    process = process_along_path(scenario, partial(resolve, base_dir), placed.samples,
+                                 segment_names(path), moves=path.moves)
+    times["process"] += time.perf_counter() - t0
     how = ("engagement from the stock" if process.material is not None
            else f"{scenario.cut.type} cut")
     progress(f"[2/5] process: tool {process.tool.name}, {how} at "
              f"{scenario.cut.spindle_rpm:g} rpm ({times['process']:.2f} s)")
+    return replace(placed, process=process, times=times,
+                   warnings=placed.warnings + process_warnings(process, path, scenario))
 
-    return Front(scenario=scenario, path=path, samples=samples, placement=placement,
-                 process=process, warnings=warnings, times=times)
 
-
-def prepare(
-    scenario: Scenario,
-    base_dir: Path,
-    progress: Progress = _stderr_progress,
-    spacing_mm: float | None = None,
-) -> Prepared:
-    """Run the geometry, process, robot and bound stages of ``scenario``."""
-    from feedopt.export.job import early_blockers
-
-    front = prepare_front(scenario, base_dir, progress, spacing_mm)
-    scenario, path, samples = front.scenario, front.path, front.samples
-    placement, process, warnings, times = (front.placement, front.process, front.warnings,
-                                           front.times)
-
+def _robot(placed: Front, base_dir: Path, progress: Progress
+           ) -> tuple[RobotModel, RobotAlongPath, float]:
+    """The robot stage of ``placed``: the robot, the IK along the path and its time [s]."""
+    scenario, samples, placement = placed.scenario, placed.samples, placed.placement
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     check_redundancy(robot, scenario.robot.redundancy)
@@ -123,11 +125,30 @@ def prepare(
             robot, samples.position, scenario.workpiece, q_start,
             scenario.robot.fix_tool_rotation):
         tcp = TcpPath(samples.s, placement.positions, placement.tool_axes, x_axes=x_axes,
-                      breaks=interior_stop_indices(path.stops, samples.s))
+                      breaks=interior_stop_indices(placed.path.stops, samples.s))
         along = robot_along_path(robot, tcp, q_start, scenario.robot.stiffness, progress=bar)
-    warnings += along.warnings
+    return robot, along, time.perf_counter() - t0
+
+
+def prepare(
+    scenario: Scenario,
+    base_dir: Path,
+    progress: Progress = _stderr_progress,
+    spacing_mm: float | None = None,
+) -> Prepared:
+    """Run the geometry, process, robot and bound stages of ``scenario`` (the robot's IK
+    in a thread beside the process stage: both need only the placed samples)."""
+    from feedopt.export.job import early_blockers
+
+    placed = _place(scenario, base_dir, progress, spacing_mm)
+    robot_stage = beside(partial(_robot, placed, base_dir, _quiet))
+    front = _process(placed, base_dir, progress)
+    robot, along, times_robot = robot_stage()
+    scenario, path, samples = front.scenario, front.path, front.samples
+    placement, process, times = front.placement, front.process, front.times
+    warnings = front.warnings + list(along.warnings)
     blockers = early_blockers(robot, path)
-    times["robot"] = time.perf_counter() - t0
+    times["robot"] = times_robot
     progress(f"[3/5] robot: {robot.name}, IK on {samples.s.size} samples, max condition "
              f"number {along.max_condition_number:.1f} ({times['robot']:.2f} s)")
 
@@ -152,7 +173,7 @@ def prepare(
     warnings += [b.reason for b in blockers.values() if b.warn]
     for w in warnings:
         progress(f"warning: {w}")
-    progress(_bounds_line(schedule, path, samples.s, times["bounds"]))
+    progress(bounds_line(schedule, path.moves, samples.s, times["bounds"]))
     return Prepared(scenario=scenario, base_dir=base_dir, path=path, samples=samples,
                     placement=placement, process=process, robot=robot, along=along,
                     schedule=schedule, stage_times=times, warnings=warnings,
@@ -168,19 +189,6 @@ def _redundancy(front: Front, base_dir: Path, robot: RobotModel, nearest: RobotA
     coarse = prepare_front(front.scenario, base_dir, _quiet, spacing_mm=spacing_mm)
     with progress_bar(progress, "[4/5] redundancy") as bar:
         return optimise_along_path(robot, coarse, front, nearest, bar)
-
-
-def _bounds_line(schedule: ScheduleInputs, path, s: np.ndarray, seconds: float) -> str:
-    """The progress line of the bound: its range, T*, the share of each active constraint
-    (a program: the line where it is lowest)."""
-    v_max = schedule.bound.v_max
-    share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()
-                      if v > 0)
-    if path.moves is not None:  # where a program's bound is lowest, by its line
-        share += f"; lowest at {path.moves.label(path.moves.lowest_cut(s, v_max)[1])}"
-    return (f"[4/5] bounds: v_max {v_max.min() / MM:.3f}-{v_max.max() / MM:.3f} "
-            f"mm/s, T* = {schedule.problem.lower_bound_time():.2f} s; active: {share} "
-            f"({seconds:.2f} s)")
 
 
 def start_joints(robot: RobotModel, scenario: Scenario) -> np.ndarray:
@@ -269,13 +277,8 @@ def validate_scenario(scenario_path: str | Path) -> str:
     robot = load_robot(files(scenario.robot.directory, "robot directory"))
     check_redundancy(robot, scenario.robot.redundancy)
     start_joints(robot, scenario)  # one value per joint, within the limits, as run checks
-    path = path_from_section(scenario.path, base_dir, stock_top=scenario.stock is None)
-    scenario, _ = settings_from_program(scenario, path)
-    spacing = scenario.path.spacing_mm * MM
-    samples = sample_path(path, spacing)
-    scenario, _ = program_stock(scenario, files, samples, path.moves, spacing)
-    process = process_along_path(scenario, files, samples, segment_names(path),
-                                 moves=path.moves)
+    front = prepare_front(scenario, base_dir, _quiet)
+    scenario, path, process = front.scenario, front.path, front.process
     notes = process_warnings(process, path, scenario)
     stock = ""
     if process.material is not None:

@@ -4,7 +4,8 @@ import threading
 
 import pytest
 
-from feedopt.parallel import for_each_chunk, worker_threads
+from feedopt.errors import InputError
+from feedopt.parallel import beside, for_each_chunk, worker_threads
 from tests.conftest import SCENARIOS
 
 
@@ -96,3 +97,39 @@ def test_a_run_plans_with_single_threaded_blas(monkeypatch, tmp_path) -> None:
         assert _blas_threads() == before
     assert seen and set(seen[0]) == {1}
     assert not (tmp_path / "out").exists()
+
+
+def test_beside_runs_in_a_thread_while_the_caller_goes_on(monkeypatch):
+    monkeypatch.setenv("FEEDOPT_THREADS", "2")
+    go = threading.Event()
+
+    def waits_for_the_caller() -> str:
+        assert go.wait(10), "the caller never ran beside this function"
+        return "done"
+
+    wait = beside(waits_for_the_caller)
+    go.set()  # only reached because beside returned before the function ended
+    assert wait() == "done"
+
+
+def test_beside_raises_the_functions_error_in_the_caller(monkeypatch):
+    monkeypatch.setenv("FEEDOPT_THREADS", "2")
+
+    def fails() -> None:
+        raise InputError("unreachable sample 7")
+
+    wait = beside(fails)
+    with pytest.raises(InputError, match="sample 7"):
+        wait()
+
+
+def test_beside_on_one_thread_calls_at_once(monkeypatch):
+    monkeypatch.setenv("FEEDOPT_THREADS", "1")
+    calls = []
+    wait = beside(lambda: calls.append(threading_name()) or 5)
+    assert calls == [threading_name()]  # called in the caller, before beside returned
+    assert wait() == 5
+
+
+def threading_name() -> str:
+    return threading.current_thread().name

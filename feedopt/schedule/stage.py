@@ -179,3 +179,17 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),
                          who="feed")
     return ScheduleInputs(model=model, bound=bound, problem=problem, limit=limit)
+
+
+def bounds_line(schedule: ScheduleInputs, moves, s: np.ndarray, seconds: float) -> str:
+    """The run's progress line of the bound: its range, T*, the share of each active
+    constraint and, on a program (``moves``: the path's program tables, else None), the line
+    where it is lowest."""
+    v_max = schedule.bound.v_max
+    share = ", ".join(f"{k} {v:.0%}" for k, v in schedule.bound.active_fraction().items()
+                      if v > 0)
+    if moves is not None:  # where a program's bound is lowest, by its line
+        share += f"; lowest at {moves.label(moves.lowest_cut(s, v_max)[1])}"
+    return (f"[4/5] bounds: v_max {v_max.min() / MM:.3f}-{v_max.max() / MM:.3f} "
+            f"mm/s, T* = {schedule.problem.lower_bound_time():.2f} s; active: {share} "
+            f"({seconds:.2f} s)")
