@@ -132,10 +132,12 @@ def _export_job(prepared: Prepared, law: str, res: LawResult, samples, cycle: fl
 
 
 def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list,
-                  drawing: background.Prestarted | None) -> background.Prestarted:
+                  drawing: background.Prestarted | None,
+                  trajectories: dict[str, Trajectory]) -> background.Prestarted:
     """The report drawn in a child: the prestarted one (its plotting imports done) for a
-    short path, else a fork now that shares the data instead of sending a copy."""
-    from feedopt.report.run import ExtraFigures, ReportPath, write_run_report
+    short path, else a fork now that shares the data instead of sending a copy.
+    ``trajectories``: the drawn laws' (their time at each sample is found in the child)."""
+    from feedopt.report.run import ExtraFigures, ReportPath, SampleSources, write_run_report
 
     sc, problem = prepared.scenario, prepared.problem
     material = prepared.process.material
@@ -143,8 +145,10 @@ def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list
     red = (None if prepared.redundancy is None
            else redundancy_series(prepared.redundancy, prepared.nearest_compliance,
                                   prepared.placement))
+    sources = SampleSources(prepared.bound.active, prepared.bound.names, prepared.path.moves,
+                            trajectories)
     path = ReportPath(prepared.positions, prepared.samples.segment, problem,
-                      prepared.robot.axis_convention.unit)
+                      prepared.robot.axis_convention.unit, sources)
     draw = partial(write_run_report, out_dir, sc.name, summary, path, series,
                    sc.deflection.limit_mm, ExtraFigures(engagement, red))
     if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
@@ -226,7 +230,7 @@ def write_outputs(
                "warnings": list(prepared.warnings) + [f"law {law} declined: {why}" for law, why
                                                       in prepared.declined.items()],
                "declined_laws": dict(prepared.declined), "laws": {}}
-    series, pending = [], []
+    series, pending, trajectories = [], [], {}
     notes = export_notes(prepared)
     for law, res in results.items():
         entry, drawable = _law_entry(prepared, law, res, cycle, export_unverified)
@@ -242,12 +246,17 @@ def write_outputs(
         if report:
             series.append(law_series(law, problem.s, res.verification, samples,
                                      prepared.robot.axis_convention.unit))
+            trajectories[law] = res.trajectory
     t_report = time.perf_counter()
     if report:  # drawn in a forked child while the exporters write (feedopt.background)
-        drawing = _start_report(prepared, out_dir, summary, series, drawing)
+        drawing = _start_report(prepared, out_dir, summary, series, drawing, trajectories)
     exporting = _run_exports(pending, out_dir, times, progress, drawing)
     if drawing is not None:
         drawing.join()
+        if report:  # drawn before the exporters named their files: the verdict again
+            from feedopt.report.verdict import refresh_report_verdict
+
+            refresh_report_verdict(out_dir, summary)
         # the part of the drawing the exports did not hide (rows add up to the wall time)
         times[("report", "")] = time.perf_counter() - t_report - exporting
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")

@@ -85,11 +85,14 @@ class LawSeries:
     joint_velocity_deg_s: np.ndarray
     verified: bool = True
     notes: tuple[str, ...] = ()
+    path_t_s: np.ndarray | None = None  # (k,) time at each path sample [s]; None: not given
 
     def __post_init__(self) -> None:
         for name in ("s_mm", "feed_mm_s", "deflection_mm", "t_s", "feed_t_mm_s",
                      "accel_mm_s2", "jerk_mm_s3"):
             object.__setattr__(self, name, _ro(getattr(self, name), name=f"{self.law}.{name}"))
+        if self.path_t_s is not None:
+            object.__setattr__(self, "path_t_s", _ro(self.path_t_s, name=f"{self.law}.path_t_s"))
         object.__setattr__(
             self,
             "joint_velocity_deg_s",
@@ -97,8 +100,8 @@ class LawSeries:
                 f"{self.law}.joint_velocity_deg_s"),
         )
         k, m = self.s_mm.shape[0], self.t_s.shape[0]
-        for name in ("feed_mm_s", "deflection_mm"):
-            if getattr(self, name).shape[0] != k:
+        for name in ("feed_mm_s", "deflection_mm", "path_t_s"):
+            if getattr(self, name) is not None and getattr(self, name).shape[0] != k:
                 raise ValueError(f"{self.law}.{name} has {getattr(self, name).shape[0]} "
                                  f"samples, s_mm has {k}")
         for name in ("feed_t_mm_s", "accel_mm_s2", "jerk_mm_s3", "joint_velocity_deg_s"):
@@ -256,6 +259,79 @@ def redundancy_series(result, nearest_compliance: np.ndarray, placement) -> Redu
         status=result.status.value, **profile)
 
 
+def _ro_as(a, dtype, name: str) -> np.ndarray:
+    """A read-only 1-d array of ``dtype`` (ValueError naming ``name`` otherwise)."""
+    arr = np.array(a, dtype=dtype)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must have shape (n,), got {arr.shape}")
+    arr.flags.writeable = False
+    return arr
+
+
+@dataclass(frozen=True)
+class SampleInfo:
+    """Per path sample (k,) what the interactive figures show beside the laws' curves.
+
+    v_max_mm_s : (k,) the feed bound v_max(s) [mm/s]
+    active : (k,) uint8, index into ``constraints`` of the bound's tightest part
+    constraints : the bound's constraint names (``FeedBound.names``)
+    air : (k,) bool, samples that do not cut (a program's rapids, plunges, retracts)
+    program_line : (k,) int32, source line of each sample's program move (0: no program)
+    line_numbers, line_labels : (u,) the distinct program lines, increasing, and their
+        labels (``"line 88 (N880)"``): a small table instead of k strings
+    """
+
+    v_max_mm_s: np.ndarray
+    active: np.ndarray
+    constraints: tuple[str, ...]
+    air: np.ndarray
+    program_line: np.ndarray
+    line_numbers: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    line_labels: np.ndarray = field(default_factory=lambda: np.zeros(0, str))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "constraints", tuple(str(c) for c in self.constraints))
+        if not 1 <= len(self.constraints) <= 255:
+            raise ValueError(f"constraints must name 1-255 constraints, got "
+                             f"{len(self.constraints)}")
+        for name, dtype in (("v_max_mm_s", np.float64), ("active", np.int64), ("air", bool),
+                            ("program_line", np.int64), ("line_numbers", np.int64),
+                            ("line_labels", str)):
+            object.__setattr__(self, name, _ro_as(getattr(self, name), dtype, name))
+        k = self.v_max_mm_s.shape[0]
+        for name in ("active", "air", "program_line"):
+            if getattr(self, name).shape[0] != k:
+                raise ValueError(f"{name} has {getattr(self, name).shape[0]} samples, "
+                                 f"v_max_mm_s has {k}")
+        if self.active.size and not (0 <= self.active.min() and self.active.max()
+                                     < len(self.constraints)):
+            raise ValueError(f"active must index the {len(self.constraints)} constraints")
+        if self.line_labels.shape != self.line_numbers.shape:
+            raise ValueError(f"{self.line_labels.size} line_labels for "
+                             f"{self.line_numbers.size} line_numbers")
+        if np.any(np.diff(self.line_numbers) <= 0) or np.any(self.line_numbers <= 0):
+            raise ValueError("line_numbers must be positive and increasing")
+        known = np.isin(self.program_line, self.line_numbers) | (self.program_line == 0)
+        if not known.all():
+            raise ValueError(f"program_line {self.program_line[~known][0]} has no label in "
+                             "line_numbers")
+        for name, dtype in (("active", np.uint8), ("program_line", np.int32),
+                            ("line_numbers", np.int32)):
+            object.__setattr__(self, name, _ro_as(getattr(self, name), dtype, name))
+
+    def labels_at(self, idx: np.ndarray) -> np.ndarray:
+        """(m,) str: the program line label of the samples ``idx`` ("" without a program)."""
+        line = self.program_line[idx]
+        if not self.line_numbers.size:
+            return np.full(line.shape, "", dtype=str)
+        pos = np.clip(np.searchsorted(self.line_numbers, line), 0, self.line_numbers.size - 1)
+        return np.where(line > 0, self.line_labels[pos], "")
+
+    def active_names_at(self, idx: np.ndarray) -> np.ndarray:
+        """(m,) str: the name of the bound's active constraint at the samples ``idx``."""
+        return np.asarray(self.constraints)[self.active[idx]]
+
+
 @dataclass(frozen=True)
 class ReportData:
     """Everything :func:`feedopt.report.html.write_report` draws.
@@ -272,6 +348,8 @@ class ReportData:
     joint_velocity_limit_deg_s : (joints,) joint speed limits [deg/s; mm/s for a prismatic
         joint], as many as the laws' joint velocity columns.
     deflection_limit_mm : the user's deflection limit [mm].
+    samples : per path sample the feed bound, its active constraint, the air samples and
+        the program lines (:class:`SampleInfo`); None: not known (the figures go without).
     """
 
     scenario: str
@@ -285,6 +363,7 @@ class ReportData:
     engagement: EngagementSeries | None = None
     redundancy: RedundancySeries | None = None
     joint_units: tuple[str, ...] = ()  # per joint "deg" or "mm" (prismatic); () = all deg
+    samples: SampleInfo | None = None  # per path sample bound, constraint, air, program line
 
     def joint_unit(self, j: int) -> str:
         """The display unit of joint ``j`` ("deg", or "mm" for a prismatic joint)."""
@@ -315,6 +394,9 @@ class ReportData:
                 raise ValueError(
                     f"law {ls.law!r} has {ls.joint_velocity_deg_s.shape[1]} joint_velocity_deg_s "
                     f"columns, the robot {lim.size} joint_velocity_limit_deg_s")
+        if self.samples is not None and self.samples.v_max_mm_s.shape[0] != xyz.shape[0]:
+            raise ValueError(f"samples has {self.samples.v_max_mm_s.shape[0]} path samples, "
+                             f"the path has {xyz.shape[0]}")
         object.__setattr__(self, "deflection_limit_mm", float(self.deflection_limit_mm))
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 

@@ -233,6 +233,18 @@ def stock_summary(prepared: Prepared) -> dict | None:
     }
 
 
+def sample_place(prepared: Prepared, sample: int) -> dict:
+    """Where path sample ``sample`` lies: its index, arc length [mm] and, on a G-code program
+    path, the program line and label of its move (None otherwise)."""
+    s = float(prepared.problem.s[sample])
+    place = {"sample": int(sample), "s_mm": s / MM, "line": None, "label": None}
+    moves = prepared.path.moves
+    if moves is not None:
+        move = int(moves.index_at(np.array([s]))[0])
+        place.update(line=int(moves.line[move]), label=moves.label(move))
+    return place
+
+
 def law_summary(prepared: Prepared, result: LawResult) -> dict:
     ver, timing = result.verification, result.verification.timing
     traj = result.trajectory
@@ -256,6 +268,8 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "time_over_lower_bound": traj.duration / prepared.problem.lower_bound_time(),
         "max_deflection_mm": ver.max_deflection / MM,
         "deflection_ratio": ver.deflection_ratio,
+        # where the largest deflection is predicted (program line on a G-code path)
+        "worst_deflection": sample_place(prepared, ver.worst_sample),
         "meets_limit": ver.meets_limit,
         "max_feed_mm_s": timing.max_feed / MM,
         # smallest feed between the start and stop ramps (schedule/checks.py find_ramps)

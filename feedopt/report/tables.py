@@ -2,13 +2,18 @@
 
 One row per (run, law) from ``summary.json``; the same text is printed by ``feedopt compare``
 and put in ``report.md``. Missing values (``null``) show as ``-``. :func:`ramp_table` details
-the start and stop ramps (:data:`RAMP_NOTE` defines them).
+the start and stop ramps (:data:`RAMP_NOTE` defines them), :func:`where_rows` where each law
+deflects most (by program line). In HTML, cells are marked (:func:`comparison_marks`): ``bad``
+for a broken limit or a failed verification, ``warn`` for a law not exported (the reason in
+its tooltip) or not C2, ``pick`` for the program to run.
 """
 
 from __future__ import annotations
 
 import html
 from collections.abc import Mapping, Sequence
+
+from feedopt.report.verdict import RATIO_TOL, baseline_law, deflection_ratio, program_law
 
 # (header, right-aligned)
 HEADERS: tuple[tuple[str, bool], ...] = (
@@ -71,17 +76,6 @@ def _ratio(a, b) -> str:
     return f"{float(a) / float(b):.3f}"
 
 
-def deflection_ratio(summary: Mapping, law: str) -> float | None:
-    """``laws[law].deflection_ratio`` if given, else max deflection / scenario limit."""
-    row = summary["laws"][law]
-    if row.get("deflection_ratio") is not None:
-        return float(row["deflection_ratio"])
-    limit = summary.get("scenario", {}).get("deflection_limit_mm")
-    if row.get("max_deflection_mm") is None or not limit:
-        return None
-    return float(row["max_deflection_mm"]) / float(limit)
-
-
 def _ramp(row: Mapping, which: str) -> Mapping:
     ramp = row.get(which)
     return ramp if isinstance(ramp, Mapping) else {}
@@ -111,11 +105,41 @@ def ramp_rows(summary: Mapping) -> list[list[str]]:
     return rows
 
 
+#: (header, right-aligned) of the table of where each law deflects most.
+WHERE_HEADERS: tuple[tuple[str, bool], ...] = (
+    ("law", False),
+    ("max defl. [mm]", True),
+    ("defl./limit", True),
+    ("program line", False),
+    ("s [mm]", True),
+    ("sample", True),
+)
+
+
+def where_rows(summary: Mapping) -> tuple[list[list[str]], list[list[str]]]:
+    """Rows of :data:`WHERE_HEADERS` (laws whose entry has ``worst_deflection``) and their
+    marks (``bad`` where the limit is broken); no rows for an older summary."""
+    rows, marks = [], []
+    for law, r in summary["laws"].items():
+        place = r.get("worst_deflection")
+        if not isinstance(place, Mapping):
+            continue
+        ratio = deflection_ratio(summary, law)
+        label = place.get("label")
+        rows.append([str(law), _num(r.get("max_deflection_mm")),
+                     _DASH if ratio is None else f"{ratio:.3f}",
+                     str(label) if label else _DASH, _num(place.get("s_mm"), ".2f"),
+                     _DASH if place.get("sample") is None else str(int(place["sample"]))])
+        bad = ratio is not None and ratio > 1 + RATIO_TOL
+        marks.append(["", "", "bad" if bad else "", "", "", ""])
+    return rows, marks
+
+
 def comparison_rows(summary: Mapping) -> list[list[str]]:
     """Formatted cells (see :data:`HEADERS`) of one run, one row per law in file order."""
     laws = summary["laws"]
     # the baseline: the constant nominal feed, or a G-code program's own feeds
-    base = next((laws[b] for b in ("constant", "programmed") if b in laws), {})
+    base = laws.get(baseline_law(summary), {})
     t_const = base.get("cycle_time_s")
     rows = []
     for law, r in laws.items():
@@ -143,6 +167,45 @@ def comparison_rows(summary: Mapping) -> list[list[str]]:
     return rows
 
 
+_COL = {h: j for j, (h, _) in enumerate(HEADERS)}
+
+
+def _blockers(row: Mapping) -> str:
+    why = [str(b) for b in row.get("export_blockers") or []]
+    if row.get("verified") is False:
+        why = [*(str(p) for p in row.get("problems") or []), *why] or ["not verified"]
+    return "; ".join(why)
+
+
+def comparison_marks(summary: Mapping) -> list[tuple[list[str], list[str]]]:
+    """Per row of :func:`comparison_rows`: the CSS mark of each cell (``""``, ``bad``,
+    ``warn``, ``pick``) and its tooltip (``""`` for none)."""
+    pick = program_law(summary)
+    out = []
+    for law, r in summary["laws"].items():
+        marks, titles = [""] * len(HEADERS), [""] * len(HEADERS)
+        if law == pick:
+            marks[_COL["law"]], titles[_COL["law"]] = "pick", "the program to run"
+        if r.get("verified") is False:
+            marks[_COL["verified"]], titles[_COL["verified"]] = "bad", _blockers(r)
+        if r.get("exported") is False:
+            marks[_COL["exported"]], titles[_COL["exported"]] = "warn", _blockers(r)
+        ratio = deflection_ratio(summary, law)
+        if ratio is not None and ratio > 1 + RATIO_TOL:
+            marks[_COL["defl./limit"]] = "bad"
+            titles[_COL["defl./limit"]] = f"the predicted deflection breaks the limit {ratio:.3f} x"
+        if r.get("c2") is False:
+            marks[_COL["C2"]] = "warn"
+        out.append((marks, titles))
+    return out
+
+
+def not_exported_lines(summary: Mapping) -> list[str]:
+    """``law: reason`` for every law that was not exported (or failed verification)."""
+    return [f"{law}: {_blockers(r) or 'not exported'}" for law, r in summary["laws"].items()
+            if r.get("exported") is False or r.get("verified") is False]
+
+
 def _table(summaries: Sequence[Mapping], names: Sequence[str] | None):
     if not summaries:
         raise ValueError("comparison_table needs at least one summary")
@@ -157,11 +220,13 @@ def _table(summaries: Sequence[Mapping], names: Sequence[str] | None):
                 for i, s in enumerate(summaries)
             ]
         headers = [("run", False), *headers]
-    rows = []
+    rows, marks, titles = [], [], []
     for i, s in enumerate(summaries):
-        for r in comparison_rows(s):
+        for r, (m, tip) in zip(comparison_rows(s), comparison_marks(s), strict=True):
             rows.append([str(names[i]), *r] if multi else r)
-    return headers, rows
+            marks.append(["", *m] if multi else m)
+            titles.append(["", *tip] if multi else tip)
+    return headers, rows, marks, titles
 
 
 def comparison_table(summaries: Sequence[Mapping], names: Sequence[str] | None = None) -> str:
@@ -170,7 +235,8 @@ def comparison_table(summaries: Sequence[Mapping], names: Sequence[str] | None =
     With several summaries (or explicit ``names``) a first column ``run`` names the run of
     each row (``names``, else ``scenario.name``, else ``run i``).
     """
-    return markdown_table(*_table(summaries, names))
+    headers, rows, _, _ = _table(summaries, names)
+    return markdown_table(headers, rows)
 
 
 def ramp_table(summary: Mapping) -> str:
@@ -208,21 +274,32 @@ def markdown_table(headers: Sequence[tuple[str, bool]], rows: Sequence[Sequence[
 def comparison_table_html(
     summaries: Sequence[Mapping], names: Sequence[str] | None = None
 ) -> str:
-    """The same table as :func:`comparison_table` as an HTML ``<table>``."""
-    return html_table(*_table(summaries, names))
+    """The same table as :func:`comparison_table` as an HTML ``<table>``, its cells marked
+    (:func:`comparison_marks`)."""
+    headers, rows, marks, titles = _table(summaries, names)
+    return html_table(headers, rows, marks=marks, titles=titles)
+
+
+def _td(text: str, right: bool, mark: str, title: str) -> str:
+    cls = ("num" if right else "txt") + (f" {mark}" if mark else "")
+    tip = f' title="{html.escape(title)}"' if title else ""
+    return f'<td class="{cls}"{tip}>{html.escape(text)}</td>'
 
 
 def html_table(headers: Sequence[tuple[str, bool]], rows: Sequence[Sequence[str]],
-               css_class: str = "comparison") -> str:
-    """An HTML ``<table class="comparison">``; cells reading ``NO`` are marked bad."""
+               css_class: str = "comparison", marks: Sequence[Sequence[str]] | None = None,
+               titles: Sequence[Sequence[str]] | None = None) -> str:
+    """An HTML ``<table class="comparison">``. ``marks[i][j]`` is an extra CSS class of a
+    cell (``bad``, ``warn``, ``pick``) and ``titles[i][j]`` its tooltip; without marks, cells
+    reading ``NO`` are marked bad."""
     head = "".join(f"<th>{html.escape(h)}</th>" for h, _ in headers)
     body = []
-    for r in rows:
+    for i, r in enumerate(rows):
         tds = "".join(
-            f'<td class="{"num" if headers[j][1] else "txt"}'
-            f'{" bad" if c in ("NO",) else ""}">{html.escape(c)}</td>'
-            for j, c in enumerate(r)
-        )
+            _td(c, headers[j][1],
+                marks[i][j] if marks is not None else ("bad" if c == "NO" else ""),
+                titles[i][j] if titles is not None else "")
+            for j, c in enumerate(r))
         body.append(f"<tr>{tds}</tr>")
     return (
         f'<table class="{html.escape(css_class)}">\n<thead><tr>' + head + "</tr></thead>\n<tbody>\n"

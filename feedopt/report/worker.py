@@ -13,6 +13,9 @@ __all__ = ["report_worker"]
 def _import_report() -> None:
     import feedopt.report.html  # noqa: F401 - matplotlib and the figures, ~0.5 s
     import feedopt.report.run  # noqa: F401
+    from feedopt.report.interactive import warm_up
+
+    warm_up()  # plotly's import and its first figure, ~0.5 s
 
 
 def report_worker() -> background.Prestarted:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from feedopt.report.data import LawSeries, ReportData
-from feedopt.report.html import write_report
+from feedopt.report.html import INTERACTIVE_REPLACES, Interactive, render_report, write_report
 from feedopt.report.plots import FIGURES, plot_deflection, plot_path_feed
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -21,43 +21,80 @@ def written(tmp_path_factory, report_data):
     return out, write_report(out, report_data)
 
 
-def test_html_embeds_every_figure_and_nothing_external(written):
+def _static_shown() -> list:
+    """The static figures of the synthetic run (the engagement and redundancy figures need a
+    stock / robot.redundancy: optimise: tests/process/test_material.py, tests/robot)."""
+    return [spec for spec in FIGURES if spec.key not in ("engagement", "redundancy")]
+
+
+def test_html_layout_verdict_then_figures_then_tables_then_notes(written):
     _, (md_path, html_path) = written
     page = html_path.read_text()
-    images = re.findall(r'<img [^>]*src="([^"]*)"', page)
-    # every figure but the engagement one, which needs a stock (tests/process/test_material.py)
-    optional = ("engagement", "redundancy")  # only with a stock / robot.redundancy: optimise
-    shown = [spec for spec in FIGURES if spec.key not in optional]
-    assert len(images) == len(shown) == 5 and len(FIGURES) == 7
-    assert 'id="fig-engagement"' not in page
+    head, body = page.split("</head>", 1)
+    # the verdict first: thesis is the only exported law of the fake summary (none has an
+    # "exported" key: no law is exported, so the line says so and why)
+    order = [body.index(x) for x in ("<h1>", 'class="verdict', "<h2>Figures</h2>",
+                                     "<h2>Comparison of timing laws</h2>",
+                                     "<h2>Verification and notes</h2>")]
+    assert order == sorted(order)
+    assert "No program to run: no law is both verified and exported" in body
+    # interactive figures (plotly.js once, in <head>, inline) replace the static path, feed
+    # and deflection figures; the feed PNG stays as the fallback for a page without scripts
+    assert head.count("<script>") == 1 and "<script src" not in page
+    live = re.findall(r'<figure id="ifig-([^"]+)" class="interactive">', body)
+    assert live == ["path3d", "feed", "deflection"]
+    noscript = re.findall(r"<noscript>(.*?)</noscript>", body, flags=re.S)
+    assert len(noscript) == 1 and 'id="fig-feed"' in noscript[0]
+    images = re.findall(r'<img [^>]*src="([^"]*)"', body)
+    kept = [s.key for s in _static_shown() if s.key not in INTERACTIVE_REPLACES]
+    assert kept == ["accel_jerk", "joints"]
+    assert len(images) == 1 + len(kept)
+    for key in kept:
+        assert f'id="fig-{key}"' in body
+    for k, key in enumerate(kept, start=4):  # after the three interactive ones
+        assert re.search(rf'id="fig-{key}".*?<figcaption>Figure {k}: ', body)
     for src in images:
         assert src.startswith("data:image/png;base64,")
         assert base64.b64decode(src.split(",", 1)[1]).startswith(PNG_MAGIC)
-    for k, spec in enumerate(shown, start=1):
-        assert f'id="fig-{spec.key}"' in page
-        assert f"Figure {k}: " in page
-    # self-contained: no scripts, stylesheets, links or remote URLs
-    for needle in ("http://", "https://", "<script", "<link", "<iframe", "url("):
-        assert needle not in page
-    assert all(src.startswith("data:") for src in re.findall(r'src="([^"]*)"', page))
-    # escaped scenario name, comparison table, verification status
-    assert "triangle_slot &lt;test&gt;" in page and "<test>" not in page
-    assert '<table class="comparison">' in page and "<td" in page
+    # self-contained: no script, stylesheet, link, frame or image from anywhere (outside
+    # the inline scripts: plotly.js itself is tests/report/test_browser.py's)
+    outside = re.sub(r"<script\b.*?</script>", "", page, flags=re.S)
+    for needle in ("<link", "<iframe", "url(", "<script src", "http://", "https://"):
+        assert needle not in outside
+    assert all(src.startswith("data:") for src in re.findall(r'src="([^"]*)"', outside))
+    # escaped scenario name, comparison table in its scrolling box, verification status
+    assert "triangle_slot &lt;test&gt;" in page and "<test>" not in outside
+    assert '<div class="scroll"><table class="comparison">' in page
     assert "NOT verified" in page
 
 
-def test_markdown_references_png_files_that_match_the_html(written):
+def test_html_without_plotly_shows_every_static_figure(report_data, monkeypatch):
+    monkeypatch.setattr("feedopt.report.html.interactive_part", lambda data: Interactive())
+    _, page, pngs = render_report(report_data)
+    assert "<script" not in page and "<noscript>" not in page
+    images = re.findall(r'<img [^>]*src="data:image/png;base64,([^"]*)"', page)
+    shown = _static_shown()
+    assert len(images) == len(shown) == 5
+    for b64, spec in zip(images, shown, strict=True):
+        assert base64.b64decode(b64) == pngs[f"report_{spec.key}.png"]
+
+
+def test_markdown_references_png_files_of_every_static_figure(written):
     tmp_path, (md_path, html_path) = written
     assert md_path == tmp_path / "report.md" and html_path == tmp_path / "report.html"
     md = md_path.read_text()
     page = html_path.read_text()
     refs = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    assert refs == [f"report_{spec.key}.png" for spec in FIGURES
-                    if spec.key not in ("engagement", "redundancy")]
+    assert refs == [f"report_{spec.key}.png" for spec in _static_shown()]
     for ref in refs:
         payload = (tmp_path / ref).read_bytes()
         assert payload.startswith(PNG_MAGIC)
-        assert base64.b64encode(payload).decode() in page
+        # at 150 dpi: the pixel width is 150 x the figure's width in inches
+        width = int.from_bytes(payload[16:20], "big")
+        assert width >= 150 * 8
+    for key in ("feed", "accel_jerk", "joints"):  # in the HTML too (the feed one: noscript)
+        assert base64.b64encode((tmp_path / f"report_{key}.png").read_bytes()).decode() in page
+    assert md.index("<!-- verdict -->") < md.index("## Figures") < md.index("| thesis")
     assert "| thesis" in md and "defl./limit" in md
     assert "**topp**: NOT verified" in md and "thesis note" in md
     assert not list(tmp_path.glob(".*.tmp"))

@@ -14,7 +14,7 @@ from feedopt.errors import InputError
 from feedopt.report.data import validate_summary
 from feedopt.report.html import render_report
 from feedopt.report.inputs import input_rows, run_warnings
-from feedopt.report.summary import law_summary, scenario_summary
+from feedopt.report.summary import law_summary, sample_place, scenario_summary
 from feedopt.report.tables import ramp_table
 
 from .conftest import fake_summary
@@ -103,6 +103,34 @@ def test_law_entries_report_cutting_feed_and_ramps(planned) -> None:
     assert constant["start_ramp"]["feed_mm_s"] == pytest.approx(4.23, rel=1e-12)
 
 
+def test_law_entries_name_where_the_deflection_is_largest(planned) -> None:
+    prepared, results = planned
+    for res in results.values():
+        place = law_summary(prepared, res)["worst_deflection"]
+        worst = int(np.argmax(res.verification.deflection))
+        assert place["sample"] == worst
+        assert place["s_mm"] == pytest.approx(prepared.problem.s[worst] * 1e3, rel=1e-12)
+        assert place["line"] is None and place["label"] is None  # not a program path
+
+
+def test_a_program_path_place_has_its_line() -> None:
+    from types import SimpleNamespace
+
+    from feedopt.geometry.program_tables import MoveTable
+
+    nan = np.full(3, np.nan)
+    moves = MoveTable(s_start=np.array([0.0, 0.010, 0.025]), line=np.array([7, 9, 12]),
+                      n_number=np.array([70, -1, 120]), category=np.array(["cut"] * 3),
+                      kind=np.array(["line"] * 3), feed=nan, spindle_rpm=nan,
+                      tool=np.full(3, -1))
+    prepared = SimpleNamespace(problem=SimpleNamespace(s=np.linspace(0.0, 0.03, 31)),
+                               path=SimpleNamespace(moves=moves))
+    # s = 12 mm lies in the second move (10-25 mm), line 9 without an N word; 30 mm in the third
+    assert sample_place(prepared, 12) == {"sample": 12, "s_mm": pytest.approx(12.0),
+                                          "line": 9, "label": "line 9"}
+    assert sample_place(prepared, 30)["label"] == "line 12 (N120)"
+
+
 @pytest.fixture(scope="module")
 def full_summary(planned) -> dict:
     prepared, results = planned
@@ -152,20 +180,25 @@ def test_report_shows_warnings_inputs_and_ramps(report_data, full_summary, monke
     data = replace(report_data, summary=full_summary)
     md, page, _ = render_report(data)
     heads = [ln for ln in md.splitlines() if ln.startswith("#")]
-    assert heads[:5] == ["# feedopt report: triangle_slot <test>",
-                         "## Fitted inputs: these results reproduce a reference by construction",
-                         "## Warnings", "## Inputs", "## Comparison of timing laws"]
-    assert "- cut.axial_depth_mm = 1.5 is a FIT" in md  # the scenario's fit note, first
-    assert page.index("<h2>Fitted inputs") < page.index("<h2>Warnings</h2>")
+    assert heads == ["# feedopt report: triangle_slot <test>", "## Comparison of timing laws",
+                     "### Where each law deflects most", "### Start and stop ramps",
+                     "## Inputs", "## Warnings", "## Verification and notes"]
+    # the verdict and the checks before anything else: the fit and the placeholder
+    checks = md[md.index("<!-- verdict -->"):md.index("<!-- /verdict -->")]
+    assert md.index("<!-- /verdict -->") < md.index("## Comparison")
+    assert "- *fitted input*: cut.axial_depth_mm = 1.5 is a FIT" in checks
+    assert ("- *placeholder input*: robot kuka_kr500_3: joint stiffness <placeholder> & not "
+            "calibrated") in checks
+    assert page.index("<h2>Check before cutting</h2>") < page.index("<h2>Warnings</h2>")
     assert "- robot kuka_kr500_3: joint stiffness <placeholder> & not calibrated" in md
     assert ("| joint stiffness               | dpp: 2.86, 2.36, 1.67, 0.24, 0.16, 0.14 MNm/rad"
             in md)
     assert ramp_table(full_summary) in md and "min cutting feed [mm/s]" in md
     assert "min cutting feed: the smallest feed between the start and stop ramps" in md
     # HTML: same order, escaped
-    order = [page.index(x) for x in ("<h2>Warnings</h2>", "<h2>Inputs</h2>",
-                                     "<h2>Comparison of timing laws</h2>",
-                                     "<h3>Start and stop ramps</h3>")]
+    order = [page.index(x) for x in ("<h2>Comparison of timing laws</h2>",
+                                     "<h3>Start and stop ramps</h3>", "<h2>Inputs</h2>",
+                                     "<h2>Warnings</h2>")]
     assert order == sorted(order)
     assert "joint stiffness &lt;placeholder&gt; &amp; not calibrated" in page
     assert "<placeholder>" not in page

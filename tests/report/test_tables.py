@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import html
 import json
+import re
 
 import pytest
 
 from feedopt.errors import InputError
 from feedopt.report.data import load_summary, validate_summary
-from feedopt.report.tables import comparison_table, comparison_table_html, deflection_ratio
+from feedopt.report.tables import (
+    comparison_table,
+    comparison_table_html,
+    deflection_ratio,
+    not_exported_lines,
+    where_rows,
+)
 
 from .conftest import fake_summary
 
@@ -54,11 +62,50 @@ def test_several_runs_get_a_run_column():
     assert [r[0] for r in default[1:]] == ["a"] * 3 + ["b"] * 3
 
 
-def test_html_table_marks_failed_verification():
+def _cells_html(page: str) -> dict[str, dict[str, tuple[str, str, str]]]:
+    """{law: {header: (classes, title, text)}} of an HTML comparison table."""
+    heads = re.findall(r"<th>([^<]*)</th>", page)
+    rows = {}
+    for row in re.findall(r"<tr>(<td.*?)</tr>", page):
+        cells = re.findall(r'<td class="([^"]*)"(?: title="([^"]*)")?>([^<]*)</td>', row)
+        rows[cells[0][2]] = {html.unescape(h): (c, html.unescape(tip), html.unescape(x))
+                             for h, (c, tip, x) in zip(heads, cells, strict=True)}
+    return rows
+
+
+def test_html_table_marks_failed_checks_and_the_program_to_run():
     s = fake_summary()
-    s["laws"]["topp"]["verified"] = False
+    s["laws"]["topp"].update(verified=False, problems=["jerk 9 exceeds 5"], exported=False,
+                             export_blockers=["not C2: the acceleration jumps"], c2=False)
+    s["laws"]["constant"].update(exported=False, export_blockers=["deflection reaches 0.41 mm"])
+    s["laws"]["thesis"]["exported"] = True
     page = comparison_table_html([s])
-    assert page.count("<tr>") == 4 and '<td class="txt bad">NO</td>' in page
+    assert page.count("<tr>") == 4
+    rows = _cells_html(page)
+    assert rows["topp"]["verified"] == ("txt bad", "jerk 9 exceeds 5; not C2: the acceleration "
+                                        "jumps", "NO")
+    assert rows["topp"]["exported"][0] == "txt warn" and rows["topp"]["C2"][0] == "txt warn"
+    assert rows["constant"]["exported"] == ("txt warn", "deflection reaches 0.41 mm", "no")
+    # the limit broken: 0.41 / 0.29 = 1.414 > 1; the thesis law at 0.29 / 0.29 = 1 is not
+    assert rows["constant"]["defl./limit"][0] == "num bad"
+    assert rows["thesis"]["defl./limit"][0] == "num" and rows["thesis"]["exported"][0] == "txt"
+    # the program to run: the only law verified and exported
+    assert rows["thesis"]["law"][0] == "txt pick"
+    assert [r["law"][0] for k, r in rows.items() if k != "thesis"] == ["txt", "txt"]
+    assert not_exported_lines(s) == ["constant: deflection reaches 0.41 mm",
+                                     "topp: jerk 9 exceeds 5; not C2: the acceleration jumps"]
+
+
+def test_where_rows_name_the_program_line():
+    s = fake_summary()
+    s["laws"]["constant"]["worst_deflection"] = {"sample": 17950, "s_mm": 1794.92, "line": 118,
+                                                 "label": "line 118 (N1030)"}
+    s["laws"]["thesis"]["worst_deflection"] = {"sample": 3, "s_mm": 0.3, "line": None,
+                                               "label": None}
+    rows, marks = where_rows(s)  # topp has no worst_deflection (an older summary): no row
+    assert rows == [["constant", "0.41", f"{0.41 / 0.29:.3f}", "line 118 (N1030)", "1794.92",
+                     "17950"], ["thesis", "0.29", "1.000", "-", "0.30", "3"]]
+    assert marks == [["", "", "bad", "", "", ""], [""] * 6]
 
 
 def test_deflection_ratio_needs_a_limit():
