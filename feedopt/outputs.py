@@ -14,6 +14,7 @@ import numpy as np
 
 from feedopt import background
 from feedopt.errors import InputError
+from feedopt.parallel import worker_threads
 from feedopt.process.program import unmodelled_plunge_moves, unmodelled_plunge_note
 from feedopt.profiling import Progress, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
@@ -172,12 +173,15 @@ def _export_law(job, out_dir: Path) -> tuple[dict, float]:
 def _run_exports(pending: list, out_dir: Path, times: dict, progress: Progress | None,
                  drawing: background.Prestarted | None) -> float:
     """Every exporter of each pending law, timed; the drawing child is cancelled if one
-    fails. On a long path (:data:`PARALLEL_EXPORT_MIN_SAMPLES`) each law is exported in a
-    forked child of its own (the laws' files are their own, the data shared copy on
-    write), side by side on the cores. Returns the wall time spent [s]."""
+    fails. On a long path (:data:`PARALLEL_EXPORT_MIN_SAMPLES`) with a core for each, each
+    law is exported in a forked child of its own (the laws' files are their own, the data
+    shared copy on write), side by side; the report's child counts as one (on 2 cores with a
+    report the laws go one after the other here: a third process would only share the cores
+    and add its memory). Returns the wall time spent [s]."""
     t_start = time.perf_counter()
     forking = (len(pending) > 1 and background.fork_available()
-               and pending[0][2].problem.n >= PARALLEL_EXPORT_MIN_SAMPLES)
+               and pending[0][2].problem.n >= PARALLEL_EXPORT_MIN_SAMPLES
+               and len(pending) + (drawing is not None) <= worker_threads())
     children: list[background.Background] = []
     try:
         with progress_bar(progress, "[5/5] export", " laws", False) as bar:

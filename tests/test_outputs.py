@@ -51,6 +51,7 @@ def test_laws_exported_in_children_write_what_one_process_writes(job, tmp_path, 
     quiet = dict(progress=lambda _m: None, report=False)
     run_scenario(job, tmp_path / "serial", **quiet)
     monkeypatch.setattr(outputs, "PARALLEL_EXPORT_MIN_SAMPLES", 0)
+    monkeypatch.setattr(outputs, "worker_threads", lambda: 2)  # a core per law
     calls = []
     monkeypatch.setattr(outputs.background, "start",
                         lambda f, what, real=outputs.background.start: calls.append(what)
@@ -73,6 +74,7 @@ def _refuse_jerk(job, out_dir):
 def test_an_export_failing_in_its_child_fails_the_run_and_leaves_nothing(job, tmp_path,
                                                                           monkeypatch):
     monkeypatch.setattr(outputs, "PARALLEL_EXPORT_MIN_SAMPLES", 0)
+    monkeypatch.setattr(outputs, "worker_threads", lambda: 2)
     register_exporter(Exporter(name="toy", file_pattern="{law}.toy", export=_refuse_jerk,
                                description="refuses the jerk law"))
     try:
@@ -82,3 +84,16 @@ def test_an_export_failing_in_its_child_fails_the_run_and_leaves_nothing(job, tm
         del EXPORTERS["toy"]
     assert not (tmp_path / "out").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["job.yaml"]
+
+
+def test_with_a_report_on_two_cores_the_laws_are_exported_here(job, tmp_path, monkeypatch):
+    """The report's child takes a core: a child per law would be a third process on two."""
+    monkeypatch.setattr(outputs, "PARALLEL_EXPORT_MIN_SAMPLES", 0)
+    monkeypatch.setattr(outputs, "worker_threads", lambda: 2)
+    calls = []
+    monkeypatch.setattr(outputs.background, "start",
+                        lambda f, what, real=outputs.background.start: calls.append(what)
+                        or real(f, what))
+    run_scenario(job, tmp_path / "out", progress=lambda _m: None, report=True)
+    assert not [c for c in calls if c.startswith("exporting")]
+    assert (tmp_path / "out" / "jerk.csv").is_file()
