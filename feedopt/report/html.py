@@ -95,19 +95,18 @@ NOSCRIPT_FIGURE = "feed"
 
 @dataclass(frozen=True)
 class Interactive:
-    """The interactive figures of report.html and plotly.js (none without plotly)."""
+    """The interactive figures of report.html and plotly.js (empty: the static PNGs are
+    shown instead)."""
 
     figures: tuple = ()
     script: str = ""
 
 
 def interactive_part(data: ReportData) -> Interactive:
-    """Helper A's figures (:mod:`feedopt.report.interactive`); none when it or plotly is not
-    importable, so the report works without them."""
-    try:
-        from feedopt.report.interactive import interactive_figures, plotly_script
-    except ImportError:
-        return Interactive()
+    """The figures of :mod:`feedopt.report.interactive` and plotly.js (a dependency: a
+    missing plotly is an install error, not a report without its figures)."""
+    from feedopt.report.interactive import interactive_figures, plotly_script
+
     figures = tuple(interactive_figures(data))
     return Interactive(figures, plotly_script() if figures else "")
 
