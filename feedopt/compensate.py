@@ -69,7 +69,8 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
 
         path = compensation_fixed_point(nominal, plan, mean_deflection)
         (schedule, traj), (along, model) = path.plan_state, path.pose_state
-        ver, dt = replay_all({law: traj}, schedule.problem, model, schedule.limit)[law]
+        ver, dt = replay_all({law: traj}, schedule.problem, model, schedule.limit,
+                             tolerances=(schedule.wall_limit, schedule.floor_limit))[law]
         fk = forward_kinematics(prepared.robot, along.ik.q)[:, :3, 3]
         check = check_compensation(fk, model.mean_deflection(ver.feed), nominal)
         problems = list(ver.problems)

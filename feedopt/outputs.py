@@ -15,6 +15,7 @@ import numpy as np
 from feedopt import background
 from feedopt.errors import InputError
 from feedopt.parallel import worker_threads
+from feedopt.part.output import part_stage
 from feedopt.process.program import unmodelled_plunge_moves, unmodelled_plunge_note
 from feedopt.profiling import Progress, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
@@ -22,7 +23,7 @@ from feedopt.run_data import LawResult, Prepared
 from feedopt.schedule.laws import LAWS
 from feedopt.schedule.polynomial import sample_piece_chunks
 from feedopt.schedule.trajectory import Trajectory
-from feedopt.units import MS
+from feedopt.units import MM, MS
 from feedopt.verify import is_finite
 
 # The largest number of path samples a run plans is feedopt.geometry.path.MAX_SAMPLES (shared
@@ -132,9 +133,41 @@ def _export_job(prepared: Prepared, law: str, res: LawResult, samples, cycle: fl
     )
 
 
+def _part_series(prepared: Prepared, parts: dict, drawn: dict):
+    """The report's :class:`feedopt.report.data.PartSeries` of the drawn laws (None: no
+    part); the floor map of the fastest verified non-baseline law (else the first)."""
+    from feedopt.part.output import floor_points
+    from feedopt.report.data import PartSeries
+    from feedopt.verify import is_baseline
+
+    laws = [law for law in drawn if law in parts]
+    if not laws:
+        return None
+    mm = 1.0 / MM
+    candidates = [law for law in laws if not is_baseline(law)] or laws
+    chosen = min(candidates, key=lambda law: drawn[law].duration)
+    part = parts[chosen]
+    xy = floor_points(part, prepared.positions, prepared.model.frames,
+                      prepared.tool.diameter / 2.0)[:, :2] * mm
+
+    def mean(values):
+        flat = values.reshape(values.shape[0], -1)
+        has = np.any(np.isfinite(flat), axis=1)
+        out = np.full(flat.shape[0], np.nan)
+        out[has] = np.nanmean(flat[has], axis=1)
+        return out * mm
+
+    return PartSeries(
+        laws=tuple(laws), s_mm=tuple(parts[law].s * mm for law in laws),
+        left_mm=tuple(mean(parts[law].wall[:, 0]) for law in laws),
+        right_mm=tuple(mean(parts[law].wall[:, 1]) for law in laws),
+        floor_mm=tuple(mean(parts[law].floor) for law in laws), map_law=chosen,
+        map_xy_mm=xy, map_floor_mm=part.floor.reshape(-1) * mm)
+
+
 def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list,
                   drawing: background.Prestarted | None,
-                  trajectories: dict[str, Trajectory]) -> background.Prestarted:
+                  trajectories: dict[str, Trajectory], part=None) -> background.Prestarted:
     """The report drawn in a child: the prestarted one (its plotting imports done) for a
     short path, else a fork now that shares the data instead of sending a copy.
     ``trajectories``: the drawn laws' (their time at each sample is found in the child)."""
@@ -151,7 +184,7 @@ def _start_report(prepared: Prepared, out_dir: Path, summary: dict, series: list
     path = ReportPath(prepared.positions, prepared.samples.segment, problem,
                       prepared.robot.axis_convention.unit, sources)
     draw = partial(write_run_report, out_dir, sc.name, summary, path, series,
-                   sc.deflection.limit_mm, ExtraFigures(engagement, red))
+                   sc.deflection.limit_mm, ExtraFigures(engagement, red, part))
     if drawing is not None and problem.n <= CHILD_COPY_MAX_SAMPLES:
         drawing.submit(draw.func, *draw.args)  # the child has imported matplotlib
         return drawing
@@ -251,9 +284,13 @@ def write_outputs(
             series.append(law_series(law, problem.s, res.verification, samples,
                                      prepared.robot.axis_convention.unit))
             trajectories[law] = res.trajectory
+    t0 = time.perf_counter()
+    summary["part"], parts = part_stage(prepared, results, out_dir)
+    times[("part", "")] = time.perf_counter() - t0
     t_report = time.perf_counter()
     if report:  # drawn in a forked child while the exporters write (feedopt.background)
-        drawing = _start_report(prepared, out_dir, summary, series, drawing, trajectories)
+        drawing = _start_report(prepared, out_dir, summary, series, drawing, trajectories,
+                                _part_series(prepared, parts, trajectories))
     exporting = _run_exports(pending, out_dir, times, progress, drawing)
     if drawing is not None:
         drawing.join()

@@ -8,6 +8,8 @@ import importlib
 import time
 from functools import partial
 
+import numpy as np
+
 from feedopt import background, outputs
 from feedopt.errors import LawNotApplicable
 from feedopt.profiling import Progress, progress_bar, stderr_progress
@@ -98,7 +100,9 @@ def replay_laws(prepared: Prepared, planned: dict[str, Trajectory],
     results: dict[str, LawResult] = {}
     t_star = prepared.problem.lower_bound_time()
     with progress_bar(progress, "[5/5] replay") as bar:
-        replayed = replay_all(planned, prepared.problem, prepared.model, prepared.limit, bar)
+        replayed = replay_all(planned, prepared.problem, prepared.model, prepared.limit, bar,
+                              tolerances=(prepared.schedule.wall_limit,
+                                          prepared.schedule.floor_limit))
     for law, (ver, dt_verify) in replayed.items():
         traj, dt = planned[law], planning_time[law]
         results[law] = LawResult(trajectory=traj, verification=ver, planning_time=dt,
@@ -109,6 +113,8 @@ def replay_laws(prepared: Prepared, planned: dict[str, Trajectory],
         progress(f"[5/5] {law}: {traj.duration:.2f} s cycle ({traj.duration / t_star:.4f} T*), "
                  f"max deflection {ver.max_deflection / MM:.4f} mm ({ver.deflection_ratio:.4f} "
                  f"of limit), {status} ({dt:.2f} s)")
+        if ver.surface is not None and np.isfinite(ver.tolerances).any():
+            progress(f"      {law}: {ver.surface.describe()}")
         for problem in ver.problems:
             progress(f"      ! {law}: {problem}")
     return results

@@ -297,12 +297,21 @@ class FeedSection(_Strict):
 
 
 class DeflectionSection(_Strict):
-    limit_mm: PositiveFloat = Field(description="deflection limit (mm)")
-    mode: Literal["norm", "normal", "direction", "residual"] = Field("norm", description=(
-        "limit the norm of the TCP deflection (thesis), its component along the in-plane "
-        "surface normal, along a given direction, or (residual) what is left of it when the "
-        "commanded path is offset by the mean deflection of a revolution: max |d(phi) - "
-        "mean d| (compensation, feedopt.schedule.compensation)"))
+    limit_mm: PositiveFloat = Field(description="deflection limit (mm); in mode 'surface' "
+                                    "the largest |d| accepted besides the part tolerances")
+    mode: Literal["norm", "normal", "direction", "residual", "surface"] = Field(
+        "norm", description=(
+            "limit the norm of the TCP deflection (thesis), its component along the in-plane "
+            "surface normal, along a given direction, (residual) what is left of it when the "
+            "commanded path is offset by the mean deflection of a revolution: max |d(phi) - "
+            "mean d| (compensation, feedopt.schedule.compensation), or (surface) the errors "
+            "of the machined walls and floor, wall_limit_mm / floor_limit_mm "
+            "(feedopt.schedule.surface)"))
+    wall_limit_mm: PositiveFloat | None = Field(None, description="mode surface: largest "
+                                                "|wall error| (mm), the deflection normal to "
+                                                "the wall when an edge generates it")
+    floor_limit_mm: PositiveFloat | None = Field(None, description="mode surface: largest "
+                                                 "|floor error| (mm), along the tool axis")
     direction: Vector3 | None = Field(None, description="base-frame direction for mode "
                                       "'direction'")
     compensation_cap_mm: PositiveFloat | None = Field(None, description="mode residual: "
@@ -316,6 +325,13 @@ class DeflectionSection(_Strict):
         if self.compensation_cap_mm is not None and self.mode != "residual":
             raise ValueError("compensation_cap_mm applies to mode 'residual' (compensation) "
                              f"only; this scenario's mode is '{self.mode}'")
+        surface = (self.wall_limit_mm, self.floor_limit_mm)
+        if self.mode == "surface" and surface == (None, None):
+            raise ValueError("mode 'surface' needs wall_limit_mm, floor_limit_mm or both (the "
+                             "part tolerances the feed is planned for)")
+        if self.mode != "surface" and surface != (None, None):
+            raise ValueError("wall_limit_mm and floor_limit_mm apply to mode 'surface' only; "
+                             f"this scenario's mode is '{self.mode}' (set mode: surface)")
         if self.direction is not None and sum(x * x for x in self.direction) < 1e-24:
             raise ValueError("direction must be a non-zero vector")
         return self

@@ -30,6 +30,7 @@ from feedopt.schedule.checks import TimingCheck, Violation, check_timing
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.stops import stitched_ramps
+from feedopt.schedule.surface import SurfaceErrors, surface_errors
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
 
@@ -74,6 +75,8 @@ class Verification:
     problems: tuple[str, ...]
     warnings: tuple[str, ...]
     export_blockers: tuple[str, ...] = ()
+    surface: SurfaceErrors | None = None  # predicted wall/floor errors at this feed
+    tolerances: tuple[float, float] = (np.inf, np.inf)  # (wall, floor) limits, mode surface
 
     @property
     def exportable(self) -> bool:
@@ -198,10 +201,42 @@ def _non_finite(trajectory: Trajectory, problem: ScheduleProblem, limit: float) 
     )
 
 
+def check_surface(ver: Verification, surface: SurfaceErrors,
+                  tolerances: tuple[float, float], rtol: float = 1e-6) -> Verification:
+    """``ver`` with the replayed surface errors (:mod:`feedopt.schedule.surface`) and, for
+    finite part tolerances (mode surface), their check: a law over a tolerance breaks its
+    promise (a baseline is only warned about) and is not exported."""
+    wall_limit, floor_limit = tolerances
+    problems, warnings, blockers = list(ver.problems), list(ver.warnings), list(
+        ver.export_blockers)
+    worst = surface.worst_wall()
+    for what, field, values, limit in (
+            ("wall", "wall_limit_mm", worst, wall_limit),
+            ("floor", "floor_limit_mm", np.abs(surface.floor), floor_limit)):
+        if not np.isfinite(limit) or np.all(np.isnan(values)):
+            continue
+        i = int(np.nanargmax(values))
+        if values[i] <= limit * (1 + rtol):
+            continue
+        msg = (f"predicted {what} error {values[i] / MM:.4f} mm exceeds "
+               f"deflection.{field} {limit / MM:.4f} mm (ratio {values[i] / limit:.4f}) at "
+               f"sample {i}")
+        (warnings if is_baseline(ver.law) else problems).append(
+            msg + (" (expected: this baseline ignores the limit)" if is_baseline(ver.law)
+                   else ""))
+        blockers.append(msg)
+    return replace(ver, surface=surface, tolerances=tolerances, problems=tuple(problems),
+                   warnings=tuple(warnings), export_blockers=tuple(blockers),
+                   verified=ver.verified and not (len(problems) > len(ver.problems)))
+
+
 def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
-               model: DeflectionModel, limit: float, progress=None
+               model: DeflectionModel, limit: float, progress=None,
+               tolerances: tuple[float, float] = (np.inf, np.inf)
                ) -> dict[str, tuple[Verification, float]]:
-    """Verify every trajectory, replaying the forces of all of them in one pass.
+    """Verify every trajectory, replaying the forces of all of them in one pass, and the
+    surface errors of all of them in another (checked against ``tolerances`` (wall, floor)
+    [m] where finite: :func:`check_surface`).
 
     Returns ``{law: (verification, seconds)}``; the shared force pass is split evenly among
     the laws that could be replayed. ``progress(samples_done, samples)`` follows the replay.
@@ -210,18 +245,21 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
 
     t0 = time.perf_counter()
     replayable = [law for law, traj in trajectories.items() if is_finite(traj)]
-    replay = {}
+    replay, surfaces = {}, {}
     # the samples' times, found once per law (an inverse of s(t) at every sample)
     times = {law: trajectories[law].time_at(problem.s) for law in replayable}
     if replayable:
         feeds = np.stack([np.maximum(trajectories[law].timing.derivative(1)(times[law]), 0.0)
                           for law in replayable])
         replay = dict(zip(replayable, model.deflection(feeds, progress), strict=True))
+        surfaces = dict(zip(replayable, surface_errors(model, feeds), strict=True))
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():
         t1 = time.perf_counter()
         ver = verify_trajectory(traj, problem, model, limit, deflection=replay.get(law),
                                 sample_times=times.get(law))
+        if law in surfaces:
+            ver = check_surface(ver, surfaces[law], tolerances)
         out[law] = (ver, shared + time.perf_counter() - t1)
     return out

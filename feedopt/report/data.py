@@ -333,6 +333,23 @@ class SampleInfo:
 
 
 @dataclass(frozen=True)
+class PartSeries:
+    """The predicted part (:mod:`feedopt.part`) of the laws drawn [mm]: per law the dexels'
+    arc length and material left on the left and right walls (mean over the heights) and on
+    the floor (mean across the cut), NaN where there is no such surface; and the floor of
+    ``map_law`` at every floor dexel, ``map_xy_mm`` (m, 2) base-frame x/y."""
+
+    laws: tuple[str, ...]
+    s_mm: tuple[np.ndarray, ...]
+    left_mm: tuple[np.ndarray, ...]
+    right_mm: tuple[np.ndarray, ...]
+    floor_mm: tuple[np.ndarray, ...]
+    map_law: str
+    map_xy_mm: np.ndarray
+    map_floor_mm: np.ndarray
+
+
+@dataclass(frozen=True)
 class ReportData:
     """Everything :func:`feedopt.report.html.write_report` draws.
 
@@ -362,6 +379,7 @@ class ReportData:
     notes: tuple[str, ...] = field(default=())
     engagement: EngagementSeries | None = None
     redundancy: RedundancySeries | None = None
+    part: PartSeries | None = None
     joint_units: tuple[str, ...] = ()  # per joint "deg" or "mm" (prismatic); () = all deg
     samples: SampleInfo | None = None  # per path sample bound, constraint, air, program line
 

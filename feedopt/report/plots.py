@@ -537,6 +537,12 @@ def plot_redundancy(data: ReportData) -> Figure | None:
     return fig
 
 
+def _plot_part(data: ReportData) -> Figure | None:
+    from feedopt.report.part_figure import plot_part
+
+    return plot_part(data, _new_figure)
+
+
 FIGURES: tuple[FigureSpec, ...] = (
     FigureSpec(
         "path",
@@ -586,5 +592,12 @@ FIGURES: tuple[FigureSpec, ...] = (
         "the tool axis with the nearest IK and with the optimised posture (principal "
         "stiffnesses and the stiffest direction's angle from the feed).",
         plot_redundancy,
+    ),
+    FigureSpec(
+        "part",
+        "The predicted part: material left on the walls and the floor along the path (> 0 "
+        "proud of the nominal surface, < 0 overcut; the deflected edges' envelope, "
+        "feedopt.part), and the floor of one law across the cut.",
+        _plot_part,
     ),
 )

@@ -12,6 +12,7 @@ import numpy as np
 from feedopt.report.data import (
     EngagementSeries,
     LawSeries,
+    PartSeries,
     PathCurvesSI,
     RedundancySeries,
     ReportData,
@@ -75,6 +76,7 @@ class ExtraFigures:
 
     engagement: EngagementSeries | None = None
     redundancy: RedundancySeries | None = None
+    part: PartSeries | None = None
 
 
 def law_series(law: str, s: np.ndarray, verification, samples,
@@ -156,6 +158,7 @@ def write_run_report(out_dir: Path, scenario_name: str, summary: dict, path: Rep
         deflection_limit_mm=limit_mm,
         engagement=extra.engagement,
         redundancy=extra.redundancy,
+        part=extra.part,
         joint_units=() if joint_unit is None else tuple(
             "mm" if u == MM else "deg" for u in joint_unit),
         samples=samples,

@@ -245,6 +245,21 @@ def sample_place(prepared: Prepared, sample: int) -> dict:
     return place
 
 
+def surface_summary(ver) -> dict | None:
+    """The replayed surface location errors of a law [mm] and the part tolerances."""
+    surface = ver.surface
+    if surface is None:
+        return None
+
+    def largest(values: np.ndarray) -> float | None:
+        return float(np.nanmax(values)) / MM if np.any(np.isfinite(values)) else None
+
+    wall_limit, floor_limit = ver.tolerances
+    return {"max_wall_error_mm": largest(surface.worst_wall()),
+            "max_floor_error_mm": largest(np.abs(surface.floor)),
+            "wall_limit_mm": _finite(wall_limit / MM), "floor_limit_mm": _finite(floor_limit / MM)}
+
+
 def law_summary(prepared: Prepared, result: LawResult) -> dict:
     ver, timing = result.verification, result.verification.timing
     traj = result.trajectory
@@ -271,6 +286,8 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         # where the largest deflection is predicted (program line on a G-code path)
         "worst_deflection": sample_place(prepared, ver.worst_sample),
         "meets_limit": ver.meets_limit,
+        # surface location error at the samples (feedopt.schedule.surface), material left > 0
+        "surface": surface_summary(ver),
         "max_feed_mm_s": timing.max_feed / MM,
         # smallest feed between the start and stop ramps (schedule/checks.py find_ramps)
         "min_feed_mm_s": _finite(timing.min_cutting_feed / MM),

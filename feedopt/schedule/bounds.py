@@ -38,6 +38,7 @@ from feedopt.schedule.roots import (
     upper_roots_projected,
     upper_roots_quadratic,
 )
+from feedopt.schedule.surface import FloorErrorConstraint, WallErrorConstraint
 from feedopt.units import MM
 
 
@@ -58,6 +59,8 @@ class BoundInputs:
     power_max: float = np.inf  # spindle [W]
     positions: np.ndarray | None = None  # (n, 3) base frame [m], for messages
     compensation_cap: float = np.inf  # largest compensated offset (residual mode) [m]
+    wall_limit: float = np.inf  # part tolerances (deflection.mode surface) [m]
+    floor_limit: float = np.inf
     cache: dict = field(default_factory=dict)
     progress: Callable[[int, int], None] | None = None  # (samples done, samples): a bar
 
@@ -348,6 +351,8 @@ def _compensation_cap() -> FeedConstraint:
 
 
 register_constraint("compensation_cap", _compensation_cap)
+for _cls in (WallErrorConstraint, FloorErrorConstraint):
+    register_constraint(_cls.name, _cls)
 
 
 def feed_bound(inputs: BoundInputs,

@@ -27,6 +27,8 @@ class ScheduleInputs:
     bound: FeedBound
     problem: ScheduleProblem
     limit: float  # deflection limit [m]
+    wall_limit: float = np.inf  # part tolerances of deflection.mode surface [m]
+    floor_limit: float = np.inf
 
 
 def angle_grid(teeth: int, step_deg: float) -> np.ndarray:
@@ -130,11 +132,13 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         frames=placement.frames,
         compliance=along.compliance,
         rpm=scenario.cut.spindle_rpm,
-        mode=defl.mode,
+        mode="norm" if defl.mode == "surface" else defl.mode,
         direction=np.asarray(defl.direction, dtype=float) if defl.direction is not None else None,
         axial_slices=sched.axial_slices,
     )
     limit = defl.limit_mm * MM
+    wall_limit, floor_limit = (np.inf if x is None else x * MM
+                               for x in (defl.wall_limit_mm, defl.floor_limit_mm))
     programmed = None
     if path.moves is None:
         max_feed = (feed.max_mm_s if feed.max_mm_s is not None else feed.nominal_mm_s) * MM
@@ -153,6 +157,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         positions=placement.positions,
         compensation_cap=(np.inf if defl.compensation_cap_mm is None
                           else defl.compensation_cap_mm * MM),
+        wall_limit=wall_limit, floor_limit=floor_limit,
         progress=progress,
     ))
     problem = ScheduleProblem(
@@ -178,7 +183,8 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     # Once, before any law, naming the scenario's fields (every law repeats it for itself).
     check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),
                          who="feed")
-    return ScheduleInputs(model=model, bound=bound, problem=problem, limit=limit)
+    return ScheduleInputs(model=model, bound=bound, problem=problem, limit=limit,
+                          wall_limit=wall_limit, floor_limit=floor_limit)
 
 
 def bounds_line(schedule: ScheduleInputs, moves, s: np.ndarray, seconds: float) -> str:

@@ -1,0 +1,100 @@
+"""The part stage of a run's outputs: per law the predicted part (:mod:`feedopt.part.predict`),
+``part_<law>.csv`` (one row per dexel) and summary.json's ``part`` (per segment, like the
+thesis's CMM tables: :mod:`feedopt.part.measure`)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from feedopt.part.measure import segment_table
+from feedopt.part.predict import DEXEL_SPACING, PredictedPart, predict_part
+from feedopt.units import MM
+
+COLUMNS = ("s_mm", "segment", "x_mm", "y_mm", "z_mm",
+           "left_wall_mean_mm", "left_wall_min_mm", "left_wall_max_mm",
+           "right_wall_mean_mm", "right_wall_min_mm", "right_wall_max_mm",
+           "floor_centre_mm", "floor_min_mm", "floor_max_mm",
+           "sle_left_wall_mm", "sle_right_wall_mm", "sle_floor_mm")
+HEADER = ("# predicted part: material left (mm, > 0 proud of the nominal surface, < 0 "
+          "overcut) on dexels every {spacing:g} mm of cutting path; walls: the deflected "
+          "edges' envelope over the heights (mean/min/max), left = +y of the feed (up-milling "
+          "side), right = -y; floor across the cut (centre line, min, max); sle_*: the surface "
+          "location error at the same samples (feedopt.schedule.surface); x/y/z: nominal tool "
+          "tip, base frame; empty: no such surface there\n")
+
+
+def _stats(values: np.ndarray) -> list[np.ndarray]:
+    """Mean, min, max over the last axis, NaN where all are NaN."""
+    has = np.any(np.isfinite(values), axis=-1)
+    return [_nan_aware(fn, values, has) for fn in (np.nanmean, np.nanmin, np.nanmax)]
+
+
+def _nan_aware(fn, values: np.ndarray, has: np.ndarray) -> np.ndarray:
+    out = np.full(has.shape, np.nan)
+    out[has] = fn(values[has], axis=-1)
+    return out
+
+
+def part_rows(part: PredictedPart, positions: np.ndarray) -> np.ndarray:
+    """(B, len(COLUMNS)) the CSV's values in mm (NaN: no such surface)."""
+    xyz = positions[part.sample] / MM
+    left, right = (_stats(part.wall[:, j] / MM) for j in (0, 1))
+    _, fmin, fmax = _stats(part.floor / MM)
+    sle = [_stats(part.sle_wall[:, j] / MM)[0] for j in (0, 1)]
+    return np.column_stack([part.s / MM, part.segment + 1, xyz, *left, *right,
+                            part.centre_floor / MM, fmin, fmax, *sle, part.sle_floor / MM])
+
+
+def write_part_csv(path: Path, part: PredictedPart, positions: np.ndarray) -> None:
+    """``part_<law>.csv`` (:data:`COLUMNS`, NaN written as an empty cell)."""
+    buf = io.StringIO()
+    np.savetxt(buf, part_rows(part, positions), fmt="%.6g", delimiter=",")
+    body = buf.getvalue().replace("nan", "")
+    path.write_text(HEADER.format(spacing=DEXEL_SPACING / MM) + ",".join(COLUMNS) + "\n" + body,
+                    encoding="ascii")
+
+
+def part_summary(part: PredictedPart, kinds: tuple[str, ...], depth: np.ndarray) -> dict:
+    """summary.json's ``part.laws[law]``: largest errors and the per-segment table."""
+    def extreme(values: np.ndarray, fn) -> float | None:
+        return float(fn(values)) / MM if np.any(np.isfinite(values)) else None
+
+    return {"max_overcut_wall_mm": extreme(-part.wall, np.nanmax),
+            "max_proud_wall_mm": extreme(part.wall, np.nanmax),
+            "deepest_floor_mm": extreme(part.floor, np.nanmin),
+            "segments": segment_table(part, kinds, depth)}
+
+
+def floor_points(part: PredictedPart, positions: np.ndarray, frames: np.ndarray,
+                 radius: float) -> np.ndarray:
+    """(B * F, 3) base-frame positions [m] of the floor dexels (sample, then offset)."""
+    y = frames[part.sample, :, 1]
+    pts = positions[part.sample][:, None, :] + (part.offsets * radius)[None, :, None] * y[
+        :, None, :]
+    return pts.reshape(-1, 3)
+
+
+def part_stage(prepared, results: dict, out_dir: Path
+               ) -> tuple[dict | None, dict[str, PredictedPart]]:
+    """Predict, write and summarise the part of every replayed law: summary.json's ``part``
+    (None: nothing cuts) and the parts by law."""
+    model = prepared.model
+    cutting = model.engagement.exit > model.engagement.entry
+    if not cutting.any():
+        return None, {}
+    kinds = tuple(prepared.path.segment_kind)
+    laws, parts = {}, {}
+    for law, res in results.items():
+        ver = res.verification
+        if ver.surface is None:
+            continue
+        part = predict_part(model, prepared.positions, prepared.problem.s,
+                            prepared.samples.segment, np.maximum(ver.feed, 0.0), ver.surface)
+        name = f"part_{law}.csv"
+        write_part_csv(out_dir / name, part, prepared.positions)
+        laws[law] = {"csv": name, **part_summary(part, kinds, model.engagement.axial_depth)}
+        parts[law] = part
+    return {"dexel_spacing_mm": DEXEL_SPACING / MM, "laws": laws}, parts
