@@ -15,7 +15,7 @@ import numpy as np
 from feedopt import background
 from feedopt.errors import InputError
 from feedopt.parallel import worker_threads
-from feedopt.part.output import part_stage
+from feedopt.part.output import other_mode, part_stage
 from feedopt.process.program import unmodelled_plunge_moves, unmodelled_plunge_note
 from feedopt.profiling import Progress, progress_bar
 from feedopt.report.data import engagement_series, redundancy_series
@@ -286,6 +286,11 @@ def write_outputs(
             trajectories[law] = res.trajectory
     t0 = time.perf_counter()
     summary["part"], parts = part_stage(prepared, results, out_dir)
+    if summary["part"] is not None:
+        from feedopt.report.verdict import program_law
+
+        law = program_law(summary)
+        summary["part"]["other_mode"] = other_mode(prepared, law, results.get(law))
     times[("part", "")] = time.perf_counter() - t0
     t_report = time.perf_counter()
     if report:  # drawn in a forked child while the exporters write (feedopt.background)

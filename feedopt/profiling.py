@@ -143,6 +143,8 @@ def run_profile(stage_times: Mapping[str, float], results: Mapping[str, LawTimes
                  StageTiming("verify", res.verification_time, law)]
         if ("export", law) in output_times:
             rows.append(StageTiming("export", output_times[("export", law)], law))
+    if ("part", "") in output_times:  # the predicted part of every law
+        rows.append(StageTiming("part", output_times[("part", "")]))
     if ("report", "") in output_times:
         rows.append(StageTiming("report", output_times[("report", "")]))
     rows.append(StageTiming("other", max(0.0, total - sum(r.seconds for r in rows))))

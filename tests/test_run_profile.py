@@ -27,7 +27,7 @@ def test_profile_has_every_stage_and_law_and_adds_up(tmp_path):
     assert keys == [("geometry", ""), ("process", ""), ("robot", ""), ("bounds", ""),
                     ("plan", "constant"), ("verify", "constant"), ("export", "constant"),
                     ("plan", "jerk"), ("verify", "jerk"), ("export", "jerk"),
-                    ("report", ""), ("other", "")]
+                    ("part", ""), ("report", ""), ("other", "")]
     assert all(r.seconds >= 0 for r in prof.rows)
     # the rows (with "other") add up to the run's wall time, measured here from outside
     assert sum(r.seconds for r in prof.rows) == pytest.approx(prof.total_s, rel=1e-9)

@@ -70,13 +70,21 @@ def test_predicted_part_in_summary_and_csv(runs):
         assert rows[0][0] == "s_mm" and len(rows) - 1 == sum(r["dexels"] for r in segments)
 
 
+def _edited(tmp_path, name: str, old: str, new: str):
+    """scenarios/<name>.yaml with ``old`` replaced by ``new``, written to ``tmp_path`` with
+    its relative paths made absolute."""
+    text = (ROOT / "scenarios" / f"{name}.yaml").read_text()
+    assert old in text
+    path = tmp_path / f"{name}_edited.yaml"
+    path.write_text(text.replace(old, new).replace("../robots", str(ROOT / "robots"))
+                    .replace("tools/", str(ROOT / "scenarios" / "tools") + "/")
+                    .replace("materials/", str(ROOT / "scenarios" / "materials") + "/"))
+    return path
+
+
 def test_surface_limits_are_refused_outside_mode_surface(tmp_path):
-    text = (ROOT / "scenarios" / "triangle_slot.yaml").read_text()
-    bad = tmp_path / "bad.yaml"
-    bad.write_text(text.replace("  mode: norm", "  mode: norm\n  wall_limit_mm: 0.05")
-                   .replace("../robots", str(ROOT / "robots"))
-                   .replace("tools/", str(ROOT / "scenarios" / "tools") + "/")
-                   .replace("materials/", str(ROOT / "scenarios" / "materials") + "/"))
+    bad = _edited(tmp_path, "triangle_slot", "  mode: norm",
+                  "  mode: norm\n  wall_limit_mm: 0.05")
     with pytest.raises(InputError, match="mode 'surface' only"):
         load_scenario(bad)
     bad.write_text(bad.read_text().replace("  mode: norm\n  wall_limit_mm: 0.05",
@@ -86,12 +94,8 @@ def test_surface_limits_are_refused_outside_mode_surface(tmp_path):
 
 
 def test_a_tolerance_the_edge_forces_break_is_a_clear_error(tmp_path):
-    text = (ROOT / "scenarios" / "triangle_slot_surface.yaml").read_text()
-    bad = tmp_path / "tight.yaml"
-    bad.write_text(text.replace("wall_limit_mm: 0.0543", "wall_limit_mm: 0.01")
-                   .replace("../robots", str(ROOT / "robots"))
-                   .replace("tools/", str(ROOT / "scenarios" / "tools") + "/")
-                   .replace("materials/", str(ROOT / "scenarios" / "materials") + "/"))
+    bad = _edited(tmp_path, "triangle_slot_surface", "wall_limit_mm: 0.0543",
+                  "wall_limit_mm: 0.01")
     with pytest.raises(InputError, match=r"wall_limit_mm 0.01 mm is exceeded by the wall error "
                                          r"of the edge forces alone.*smallest limit"):
         run_scenario(bad, tmp_path / "out", laws=["constant"], progress=quiet, report=False)

@@ -11,6 +11,7 @@ import numpy as np
 
 from feedopt.part.measure import segment_table
 from feedopt.part.predict import DEXEL_SPACING, PredictedPart, predict_part
+from feedopt.schedule.surface import surface_lower_bound
 from feedopt.units import MM
 
 COLUMNS = ("s_mm", "segment", "x_mm", "y_mm", "z_mm",
@@ -98,3 +99,25 @@ def part_stage(prepared, results: dict, out_dir: Path
         laws[law] = {"csv": name, **part_summary(part, kinds, model.engagement.axial_depth)}
         parts[law] = part
     return {"dexel_spacing_mm": DEXEL_SPACING / MM, "laws": laws}, parts
+
+
+def other_mode(prepared, law: str | None, result) -> dict | None:
+    """summary.json's ``part.other_mode`` of a norm-mode run: the part tolerances its program
+    law ``law`` reaches (largest |wall| and |floor| surface errors) and T* when the feed is
+    planned for them instead (``deflection.mode: surface``); None in the other modes."""
+    sc = prepared.scenario.deflection
+    if law is None or result is None or sc.mode != "norm":
+        return None
+    surface = result.verification.surface
+    if surface is None:
+        return None
+    wall, floor = surface.worst_wall(), np.abs(surface.floor)
+    tol = tuple(float(np.nanmax(x)) if np.any(np.isfinite(x)) else np.inf
+                for x in (wall, floor))
+    t_other = surface_lower_bound(prepared.model, prepared.bound.parts, prepared.problem, tol)
+    if t_other is None:
+        return None
+    mm = [x / MM if np.isfinite(x) else None for x in tol]
+    return {"mode": "norm", "law": law, "wall_limit_mm": mm[0], "floor_limit_mm": mm[1],
+            "lower_bound_s": prepared.problem.lower_bound_time(),
+            "other_lower_bound_s": t_other}

@@ -21,6 +21,13 @@ from pathlib import Path
 
 from feedopt.report.data import ReportData
 from feedopt.report.inputs import input_rows, run_warnings
+from feedopt.report.part_table import (
+    PART_HEADERS,
+    PART_NOTE,
+    PART_TITLE,
+    other_mode_line,
+    part_rows,
+)
 from feedopt.report.plots import FIGURES, FigureSpec, caption_of, render_pngs
 from feedopt.report.tables import (
     RAMP_NOTE,
@@ -138,6 +145,11 @@ def _markdown(data: ReportData, figures: list[FigureSpec], title: str) -> str:
     where, _ = where_rows(summary)
     if where:
         md += [f"### {_WHERE_TITLE}", "", markdown_table(WHERE_HEADERS, where), ""]
+    part = part_rows(summary)
+    if part:
+        other = other_mode_line(summary)
+        md += [f"### {PART_TITLE}", "", markdown_table(PART_HEADERS, part), "", PART_NOTE, ""]
+        md += [other, ""] if other else []
     md += ["### Start and stop ramps", "", ramp_table(summary), "", RAMP_NOTE, ""]
     inputs = input_rows(summary)
     if inputs:
@@ -206,6 +218,11 @@ def _html_tables(data: ReportData) -> list[str]:
     if where:
         out += [f"<h3>{_WHERE_TITLE}</h3>", _boxed(html_table(WHERE_HEADERS, where,
                                                               marks=marks))]
+    part = part_rows(summary)
+    if part:
+        other = other_mode_line(summary)
+        out += [f"<h3>{PART_TITLE}</h3>", _boxed(html_table(PART_HEADERS, part)),
+                f"<p>{esc(PART_NOTE)}</p>"] + ([f"<p>{esc(other)}</p>"] if other else [])
     out += ["<h3>Start and stop ramps</h3>", _boxed(ramp_table_html(summary)),
             f"<p>{esc(RAMP_NOTE)}</p>"]
     inputs = input_rows(summary)

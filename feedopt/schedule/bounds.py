@@ -38,7 +38,7 @@ from feedopt.schedule.roots import (
     upper_roots_projected,
     upper_roots_quadratic,
 )
-from feedopt.schedule.surface import FloorErrorConstraint, WallErrorConstraint
+from feedopt.schedule.surface import floor_error_constraint, wall_error_constraint
 from feedopt.units import MM
 
 
@@ -351,8 +351,8 @@ def _compensation_cap() -> FeedConstraint:
 
 
 register_constraint("compensation_cap", _compensation_cap)
-for _cls in (WallErrorConstraint, FloorErrorConstraint):
-    register_constraint(_cls.name, _cls)
+register_constraint("wall_error", wall_error_constraint)
+register_constraint("floor_error", floor_error_constraint)
 
 
 def feed_bound(inputs: BoundInputs,

@@ -35,6 +35,7 @@ and the feed marks (c^2 / 8R, 1e-5 mm here).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -283,34 +284,44 @@ def _surface_pass(inputs) -> SurfaceBound:
 
 
 @dataclass(frozen=True)
-class WallErrorConstraint:
-    """|wall error| <= deflection.wall_limit_mm at every wall point (mode surface only)."""
+class PartToleranceConstraint:
+    """|error| <= deflection.<surface>_limit_mm on the ``surface`` ("wall" or "floor") of
+    the part (mode surface only; ``inf`` without that limit)."""
 
-    name: str = "wall_error"
-
-    def v_max(self, inputs) -> np.ndarray:
-        if not np.isfinite(inputs.wall_limit):
-            return np.full(inputs.n, np.inf)
-        done = _surface_pass(inputs)
-        msg = zero_feed_message("wall", "wall_limit_mm", inputs.wall_limit,
-                                done.zero_feed_wall, inputs.positions)
-        if msg:
-            raise InputError(msg)
-        return done.v_wall
-
-
-@dataclass(frozen=True)
-class FloorErrorConstraint:
-    """|floor error| <= deflection.floor_limit_mm (mode surface only)."""
-
-    name: str = "floor_error"
+    name: str
+    surface: str
 
     def v_max(self, inputs) -> np.ndarray:
-        if not np.isfinite(inputs.floor_limit):
+        limit = getattr(inputs, f"{self.surface}_limit")
+        if not np.isfinite(limit):
             return np.full(inputs.n, np.inf)
         done = _surface_pass(inputs)
-        msg = zero_feed_message("floor", "floor_limit_mm", inputs.floor_limit,
-                                done.zero_feed_floor, inputs.positions)
+        msg = zero_feed_message(self.surface, f"{self.surface}_limit_mm", limit,
+                                getattr(done, f"zero_feed_{self.surface}"), inputs.positions)
         if msg:
             raise InputError(msg)
-        return done.v_floor
+        return getattr(done, f"v_{self.surface}")
+
+
+def wall_error_constraint() -> PartToleranceConstraint:
+    """The registered ``wall_error`` constraint."""
+    return PartToleranceConstraint("wall_error", "wall")
+
+
+def floor_error_constraint() -> PartToleranceConstraint:
+    """The registered ``floor_error`` constraint."""
+    return PartToleranceConstraint("floor_error", "floor")
+
+
+def surface_lower_bound(model: DeflectionModel, parts: dict[str, np.ndarray],
+                        problem, tolerances: tuple[float, float]) -> float | None:
+    """T* [s] of ``deflection.mode: surface`` at part ``tolerances`` (wall, floor) [m] with the
+    run's other feed bounds (``parts``: :attr:`FeedBound.parts`; the deflection limit left
+    out); None where the edge forces alone break a tolerance (no feed at all)."""
+    done = surface_feed_bound(model, *tolerances)
+    others = [v for name, v in parts.items()
+              if name not in ("deflection", "wall_error", "floor_error")]
+    v_max = np.minimum.reduce([*others, done.v_wall, done.v_floor])
+    if np.any(v_max <= 0) or not np.all(np.isfinite(v_max)):
+        return None
+    return dataclasses.replace(problem, v_max=v_max).lower_bound_time()
