@@ -66,13 +66,14 @@ def test_triangle_every_law_verified_and_only_exportable_ones_exported(triangle)
     assert not (triangle.out_dir / "constant.src").exists()
     html = (triangle.out_dir / "report.html").read_text()
     # interactive figures replace the path, feed and deflection PNGs (the feed one stays as
-    # the <noscript> fallback); the verdict names the files the exporters wrote after it
+    # the <noscript> fallback; accel/jerk, joints and the predicted part stay static); the
+    # verdict names the files the exporters wrote after it
     import re
 
     from feedopt.report.verdict import verdict, verdict_line
 
     outside = re.sub(r"<script\b.*?</script>", "", html, flags=re.S)
-    assert outside.count("data:image/png;base64,") == 3
+    assert outside.count("data:image/png;base64,") == 4
     chosen = verdict(summary)
     assert chosen.law in ("convex", "jerk") and chosen.files
     assert verdict_line(chosen) in html

@@ -40,8 +40,10 @@ import numpy as np
 SAME_LEVEL = 1e-5
 #: Dexels per chunk (bounds the (dexels, window, heights, 3) temporaries).
 _CHUNK = 32
-#: Fixed-point steps of the deflected rim's crossing with a wall dexel (:func:`_wall_chunk`).
-_CROSSING_ITERATIONS = 4
+#: Most fixed-point steps of the deflected rim's crossing with a wall dexel, and the change of
+#: the crossing [m] below which it has settled (:func:`_wall_chunk`).
+_CROSSING_ITERATIONS = 16
+_CROSSING_TOL = 1e-10
 
 
 @dataclass(frozen=True)
@@ -81,8 +83,11 @@ class DeflectionTable:
         i0 = np.floor(pos).astype(np.intp)
         w = (pos - i0)[..., None]
         i0 %= m
-        rows = k - self.first
-        return (1.0 - w) * self.values[rows, i0] + w * self.values[rows, (i0 + 1) % m]
+        base = (k - self.first) * m
+        flat = self.values.reshape(-1, 3)  # one gather per end of the interval
+        lo = np.take(flat, base + i0, axis=0)
+        hi = np.take(flat, base + np.where(i0 + 1 == m, 0, i0 + 1), axis=0)
+        return lo + w * (hi - lo)
 
 
 def _windows(tool: SweptTool, dexels: np.ndarray, reach: float) -> tuple[np.ndarray, ...]:
@@ -128,29 +133,60 @@ def _crossing(v: np.ndarray, n: np.ndarray, r: float) -> tuple[np.ndarray, ...]:
 def _wall_chunk(tool, table, dexels, side, heights, reach):
     """The exact crossing of the deflected rim: the edge that reaches the dexel is at the
     angle phi' of the crossing about the displaced centre c_k + D, and D is taken at that
-    edge's instant, so D and phi' are found together (a fixed point; |dD/dphi| / R << 1, so
-    :data:`_CROSSING_ITERATIONS` steps settle it to far below a nanometre)."""
+    edge's instant, so D and phi' are found together: a fixed point, iterated on the
+    crossings that still move by more than :data:`_CROSSING_TOL` (most settle in two steps;
+    near a jump of the force, where D changes fast with the angle, it takes up to ten)."""
     r = tool.radius
     k, ok = _windows(tool, dexels, reach)
-    h = heights.shape[1]
-    axis = tool.frames[dexels, :, 2][:, None, None, :]
-    n = np.broadcast_to(side * tool.frames[dexels, :, 1][:, None, None, :],
-                        (dexels.size, k.shape[1], h, 3))  # into the material
+    shape = (dexels.size, k.shape[1], heights.shape[1])
+    axis = tool.frames[dexels, :, 2]
+    n = np.broadcast_to(side * tool.frames[dexels, :, 1][:, None, None, :], shape + (3,))
     point = tool.centres[dexels][:, None, None, :] + r * n
-    v = _in_plane(point - tool.centres[k][:, :, None, :], axis)  # (B, W, H, 3)
-    fx, fy = tool.frames[k, :, 0][:, :, None, :], tool.frames[k, :, 1][:, :, None, :]
-    kk = np.broadcast_to(k[:, :, None], v.shape[:3])
-    lag = tool.lag_rate * heights[:, None, :]
-    d = np.zeros_like(v)
-    for _ in range(_CROSSING_ITERATIONS):
-        t, u, meets = _crossing(v - _in_plane(d, axis), n, r)
-        phi = np.arctan2(np.einsum("bwhi,bwhi->bwh", u, np.broadcast_to(fx, u.shape)),
-                         np.einsum("bwhi,bwhi->bwh", u, np.broadcast_to(fy, u.shape)))
-        d = table.at(kk, phi + lag)
-    t, _, meets = _crossing(v - _in_plane(d, axis), n, r)
-    t = np.where(ok[..., None] & meets, t, -np.inf)
+    v = _in_plane(point - tool.centres[k][:, :, None, :], axis[:, None, None, :])
+    flat = _Flat(v.reshape(-1, 3), n.reshape(-1, 3),
+                 np.broadcast_to(axis[:, None, None, :], shape + (3,)).reshape(-1, 3),
+                 np.broadcast_to(tool.frames[k, :, 0][:, :, None], shape + (3,)).reshape(-1, 3),
+                 np.broadcast_to(tool.frames[k, :, 1][:, :, None], shape + (3,)).reshape(-1, 3),
+                 np.broadcast_to(k[:, :, None], shape).ravel(),
+                 np.broadcast_to(tool.lag_rate * heights[:, None, :], shape).ravel())
+    t, meets = _settle(flat, table, r)
+    t = np.where(ok[..., None] & meets.reshape(shape), t.reshape(shape), -np.inf)
     best = _peak(t, tool.s[k])
     return np.where(np.isfinite(best), -best, np.nan)
+
+
+@dataclass(frozen=True)
+class _Flat:
+    """Per crossing (flattened): v from the rim's centre, the dexel's direction n, the tool
+    axis, the sample's feed and left axes, its index and the helix lag of the height."""
+
+    v: np.ndarray
+    n: np.ndarray
+    axis: np.ndarray
+    fx: np.ndarray
+    fy: np.ndarray
+    k: np.ndarray
+    lag: np.ndarray
+
+
+def _settle(f: _Flat, table: DeflectionTable, r: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fixed point of :func:`_wall_chunk`: t along the dexel and whether the rim meets it."""
+    d = np.zeros_like(f.v)
+    t_prev = np.full(f.k.size, np.nan)
+    active = np.arange(f.k.size)
+    for _ in range(_CROSSING_ITERATIONS):
+        v = f.v[active] - _in_plane(d[active], f.axis[active])
+        t, u, _ = _crossing(v, f.n[active], r)
+        phi = np.arctan2(np.einsum("ij,ij->i", u, f.fx[active]),
+                         np.einsum("ij,ij->i", u, f.fy[active]))
+        d[active] = table.at(f.k[active], phi + f.lag[active])
+        moving = ~(np.abs(t - t_prev[active]) <= _CROSSING_TOL)
+        t_prev[active] = t
+        active = active[moving]
+        if not active.size:
+            break
+    t, _, meets = _crossing(f.v - _in_plane(d, f.axis), f.n, r)
+    return t, meets
 
 
 def _peak(t: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.part.measure import segment_table
-from feedopt.part.predict import DEXEL_SPACING, PredictedPart, predict_part
+from feedopt.part.predict import PredictedPart, dexel_spacing, predict_parts
 from feedopt.schedule.surface import surface_lower_bound
 from feedopt.units import MM
 
@@ -49,12 +49,13 @@ def part_rows(part: PredictedPart, positions: np.ndarray) -> np.ndarray:
                             part.centre_floor / MM, fmin, fmax, *sle, part.sle_floor / MM])
 
 
-def write_part_csv(path: Path, part: PredictedPart, positions: np.ndarray) -> None:
+def write_part_csv(path: Path, part: PredictedPart, positions: np.ndarray,
+                   spacing: float) -> None:
     """``part_<law>.csv`` (:data:`COLUMNS`, NaN written as an empty cell)."""
     buf = io.StringIO()
     np.savetxt(buf, part_rows(part, positions), fmt="%.6g", delimiter=",")
     body = buf.getvalue().replace("nan", "")
-    path.write_text(HEADER.format(spacing=DEXEL_SPACING / MM) + ",".join(COLUMNS) + "\n" + body,
+    path.write_text(HEADER.format(spacing=spacing / MM) + ",".join(COLUMNS) + "\n" + body,
                     encoding="ascii")
 
 
@@ -87,18 +88,22 @@ def part_stage(prepared, results: dict, out_dir: Path
     if not cutting.any():
         return None, {}
     kinds = tuple(prepared.path.segment_kind)
-    laws, parts = {}, {}
-    for law, res in results.items():
-        ver = res.verification
-        if ver.surface is None:
-            continue
-        part = predict_part(model, prepared.positions, prepared.problem.s,
-                            prepared.samples.segment, np.maximum(ver.feed, 0.0), ver.surface)
+    replayed = {law: res.verification for law, res in results.items()
+                if res.verification.surface is not None}
+    if not replayed:
+        return None, {}
+    parts = predict_parts(model, prepared.positions, prepared.problem.s,
+                          prepared.samples.segment,
+                          {law: ver.feed for law, ver in replayed.items()},
+                          {law: ver.surface for law, ver in replayed.items()})
+    laws = {}
+    for law, part in parts.items():
         name = f"part_{law}.csv"
-        write_part_csv(out_dir / name, part, prepared.positions)
+        write_part_csv(out_dir / name, part, prepared.positions,
+                       dexel_spacing(prepared.problem.s, cutting))
         laws[law] = {"csv": name, **part_summary(part, kinds, model.engagement.axial_depth)}
-        parts[law] = part
-    return {"dexel_spacing_mm": DEXEL_SPACING / MM, "laws": laws}, parts
+    spacing = dexel_spacing(prepared.problem.s, cutting)
+    return {"dexel_spacing_mm": spacing / MM, "laws": laws}, parts
 
 
 def other_mode(prepared, law: str | None, result) -> dict | None:

@@ -10,14 +10,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from feedopt.parallel import for_each_chunk
 from feedopt.part.envelope import DeflectionTable, SweptTool, floor_envelope, wall_envelope
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.surface import SurfaceErrors, wall_sides
 
-#: Arc length between dexels [m] (the CMM's point spacing along a wall).
-DEXEL_SPACING = 0.5e-3
+#: Arc length between dexels [m] (the CMM's point spacing along a wall); a longer path gets
+#: at most :data:`MAX_DEXELS` of them, evenly spread.
+DEXEL_SPACING = 1.0e-3
+MAX_DEXELS = 20_000
 #: Floor dexels across the cut, as fractions of the radius (0 = the path's centre line).
 FLOOR_OFFSETS = np.linspace(-0.9, 0.9, 7)
+#: Heights of wall dexels per point along the wall (of the force model's axial slices).
+WALL_HEIGHTS = 6
 #: Angular step of the deflection table the envelope interpolates [rad].
 TABLE_STEP = math.radians(1.0)
 #: Dexels per block (one deflection table per block).
@@ -62,54 +67,99 @@ def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray) -> Sw
                      lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
 
 
-def deflection_table(model: DeflectionModel, first: int, last: int,
-                     c: np.ndarray) -> DeflectionTable:
-    """d_k(psi) of samples ``first .. last - 1`` at feeds per tooth ``c`` (n,) on a uniform
-    grid over one pitch."""
+def deflection_terms(model: DeflectionModel, first: int, last: int
+                     ) -> tuple[np.ndarray, np.ndarray, float]:
+    """d_k(psi) = c_k A + B of samples ``first .. last - 1`` on a uniform grid over one pitch:
+    A (k, m, 3) [m per m of feed per tooth], B (k, m, 3) [m] and the pitch [rad]."""
     pitch = model.tool.pitch
     m = max(8, math.ceil(pitch / TABLE_STEP))
     grid_model = dataclasses.replace(model, angles=np.arange(m) * (pitch / m))
-    idx = np.arange(first, last)
-    split, row = grid_model.forces(idx)
+    split, row = grid_model.forces(np.arange(first, last))
     cr = model.compliance[first:last] @ model.frames[first:last]
-    a = np.einsum("kij,kmj->kmi", cr, split.cutting[row])
-    b = np.einsum("kij,kmj->kmi", cr, split.edge[row])
-    return DeflectionTable(first, c[first:last, None, None] * a + b, pitch)
+    return (np.einsum("kij,kmj->kmi", cr, split.cutting[row]),
+            np.einsum("kij,kmj->kmi", cr, split.edge[row]), pitch)
 
 
-def dexel_samples(s: np.ndarray, cutting: np.ndarray, spacing: float = DEXEL_SPACING
+def dexel_spacing(s: np.ndarray, cutting: np.ndarray) -> float:
+    """:data:`DEXEL_SPACING`, or wider where the cutting length needs more than
+    :data:`MAX_DEXELS` dexels [m]."""
+    cut_length = float(np.sum(np.diff(s)[cutting[1:]])) if s.size > 1 else 0.0
+    return max(DEXEL_SPACING, cut_length / MAX_DEXELS)
+
+
+def dexel_samples(s: np.ndarray, cutting: np.ndarray, spacing: float | None = None
                   ) -> np.ndarray:
-    """Cutting samples about ``spacing`` apart in arc length."""
+    """Cutting samples about ``spacing`` (default :func:`dexel_spacing`) apart in arc
+    length."""
+    spacing = dexel_spacing(s, cutting) if spacing is None else spacing
     bins = np.floor(s / spacing).astype(np.int64)
     first = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
     return first[cutting[first]]
 
 
-def predict_part(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
-                 segment: np.ndarray, feed: np.ndarray, surface: SurfaceErrors,
-                 ) -> PredictedPart:
-    """The part the feed ``feed`` [m/s] at the samples leaves (module docstring)."""
+def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
+                  segment: np.ndarray, feeds: dict[str, np.ndarray],
+                  surfaces: dict[str, SurfaceErrors]) -> dict[str, PredictedPart]:
+    """The part each feed profile of ``feeds`` ({law: (n,) [m/s]}) leaves (module docstring),
+    with its surface location errors ``surfaces`` ({law: ...}). The forces of a block of
+    dexels are computed once for every law; blocks run on the threads."""
     tool = swept_tool(model, centres, s)
-    c = np.asarray(feed, dtype=float) / model.feed_per_unit_c
     dexels = dexel_samples(s, tool.cutting)
-    h = surface.heights.shape[1]
-    wall = np.full((dexels.size, 2, h), np.nan)
-    floor = np.full((dexels.size, FLOOR_OFFSETS.size), np.nan)
     sides = wall_sides(model, dexels)
-    for start in range(0, dexels.size, _BLOCK):
-        b = slice(start, start + _BLOCK)
+    some = next(iter(surfaces.values()))
+    rows = height_rows(some.heights.shape[1])
+    heights = some.heights[dexels][:, rows]
+    c = {law: np.maximum(np.asarray(f, dtype=float), 0.0) / model.feed_per_unit_c
+         for law, f in feeds.items()}
+    walls = {law: np.full((dexels.size, 2, heights.shape[1]), np.nan) for law in feeds}
+    floors = {law: np.full((dexels.size, FLOOR_OFFSETS.size), np.nan) for law in feeds}
+
+    def block(b: slice) -> int:
         d = dexels[b]
         first = int(np.searchsorted(s, s[d[0]] - tool.radius, side="left"))
         last = int(np.searchsorted(s, s[d[-1]] + tool.radius, side="right"))
-        table = deflection_table(model, first, last, c)
-        largest = float(np.max(np.linalg.norm(table.values, axis=2)))
-        reach = tool.radius * math.sin(math.acos(max(-1.0, 1.0 - 2.2 * largest / tool.radius)))
-        for j, side in enumerate((1, -1)):
-            has = sides[b, j]
-            if has.any():
-                wall[start + np.flatnonzero(has), j] = wall_envelope(
-                    tool, table, d[has], side, surface.heights[d[has]], reach)
-        floor[b] = floor_envelope(tool, table, d, FLOOR_OFFSETS * tool.radius)
-    return PredictedPart(sample=dexels, s=s[dexels], segment=segment[dexels], wall=wall,
-                         heights=surface.heights[dexels], floor=floor, offsets=FLOOR_OFFSETS,
-                         sle_wall=surface.wall[dexels], sle_floor=surface.floor[dexels])
+        a_terms, b_terms, pitch = deflection_terms(model, first, last)
+        for law in feeds:
+            table = DeflectionTable(first, c[law][first:last, None, None] * a_terms + b_terms,
+                                    pitch)
+            _sweep_block(tool, table, (d, sides[b], heights[b]),
+                         (walls[law][b], floors[law][b]))
+        return d.size
+
+    for_each_chunk(block, (slice(i, i + _BLOCK) for i in range(0, dexels.size, _BLOCK)))
+    return {law: PredictedPart(sample=dexels, s=s[dexels], segment=segment[dexels],
+                               wall=walls[law], heights=heights, floor=floors[law],
+                               offsets=FLOOR_OFFSETS,
+                               sle_wall=surfaces[law].wall[dexels][:, :, rows],
+                               sle_floor=surfaces[law].floor[dexels])
+            for law in feeds}
+
+
+def height_rows(count: int) -> np.ndarray:
+    """Which of the ``count`` wall heights (the axial slices) carry wall dexels: at most
+    :data:`WALL_HEIGHTS`, evenly spread from the lowest to the highest."""
+    if count <= WALL_HEIGHTS:
+        return np.arange(count)
+    return np.unique(np.round(np.linspace(0, count - 1, WALL_HEIGHTS)).astype(int))
+
+
+def _sweep_block(tool: SweptTool, table: DeflectionTable, dexels: tuple, out: tuple) -> None:
+    """Wall and floor envelopes of one block of dexels ((samples, sides, heights)) into
+    ``out`` ((wall (b, 2, H), floor (b, F)) views)."""
+    d, sides, heights = dexels
+    wall, floor = out
+    largest = float(np.max(np.linalg.norm(table.values, axis=2)))
+    reach = tool.radius * math.sin(math.acos(max(-1.0, 1.0 - 2.2 * largest / tool.radius)))
+    for j, side in enumerate((1, -1)):
+        has = sides[:, j]
+        if has.any():
+            wall[np.flatnonzero(has), j] = wall_envelope(tool, table, d[has], side,
+                                                         heights[has], reach)
+    floor[:] = floor_envelope(tool, table, d, FLOOR_OFFSETS * tool.radius)
+
+
+def predict_part(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
+                 segment: np.ndarray, feed: np.ndarray, surface: SurfaceErrors,
+                 ) -> PredictedPart:
+    """The part one feed profile ``feed`` [m/s] leaves (:func:`predict_parts`)."""
+    return predict_parts(model, centres, s, segment, {"": feed}, {"": surface})[""]
