@@ -30,7 +30,7 @@ from feedopt.schedule.checks import TimingCheck, Violation, check_timing
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.stops import stitched_ramps
-from feedopt.schedule.surface import SurfaceErrors, surface_errors
+from feedopt.schedule.surface import SurfaceErrors, part_samples, surface_errors
 from feedopt.schedule.trajectory import Trajectory
 from feedopt.units import MM
 
@@ -252,7 +252,11 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
         feeds = np.stack([np.maximum(trajectories[law].timing.derivative(1)(times[law]), 0.0)
                           for law in replayable])
         replay = dict(zip(replayable, model.deflection(feeds, progress), strict=True))
-        surfaces = dict(zip(replayable, surface_errors(model, feeds), strict=True))
+        # every sample where a part tolerance is checked, else where the part is measured
+        e = model.engagement
+        index = (None if np.isfinite(tolerances).any()
+                 else part_samples(problem.s, e.exit > e.entry))
+        surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.part.measure import segment_table
-from feedopt.part.predict import PredictedPart, dexel_spacing, predict_parts
-from feedopt.schedule.surface import surface_lower_bound
+from feedopt.part.predict import PredictedPart, predict_parts
+from feedopt.schedule.surface import part_spacing, surface_lower_bound
 from feedopt.units import MM
 
 COLUMNS = ("s_mm", "segment", "x_mm", "y_mm", "z_mm",
@@ -100,9 +100,9 @@ def part_stage(prepared, results: dict, out_dir: Path
     for law, part in parts.items():
         name = f"part_{law}.csv"
         write_part_csv(out_dir / name, part, prepared.positions,
-                       dexel_spacing(prepared.problem.s, cutting))
+                       part_spacing(prepared.problem.s, cutting))
         laws[law] = {"csv": name, **part_summary(part, kinds, model.engagement.axial_depth)}
-    spacing = dexel_spacing(prepared.problem.s, cutting)
+    spacing = part_spacing(prepared.problem.s, cutting)
     return {"dexel_spacing_mm": spacing / MM, "laws": laws}, parts
 
 

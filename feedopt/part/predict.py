@@ -1,6 +1,7 @@
-"""The predicted part of one law: the deflected tool's envelope (:mod:`feedopt.part.envelope`)
-on wall and floor dexels every :data:`DEXEL_SPACING` of the path, next to the surface location
-error of the same samples (:mod:`feedopt.schedule.surface`)."""
+"""The predicted part of each law: the deflected tool's envelope (:mod:`feedopt.part.envelope`)
+on wall and floor dexels at the samples where the part is measured
+(:func:`feedopt.schedule.surface.part_samples`), next to the surface location error of the same
+samples (:mod:`feedopt.schedule.surface`)."""
 
 from __future__ import annotations
 
@@ -13,12 +14,8 @@ import numpy as np
 from feedopt.parallel import for_each_chunk
 from feedopt.part.envelope import DeflectionTable, SweptTool, floor_envelope, wall_envelope
 from feedopt.schedule.deflection import DeflectionModel
-from feedopt.schedule.surface import SurfaceErrors, wall_sides
+from feedopt.schedule.surface import SurfaceErrors, part_samples, wall_sides
 
-#: Arc length between dexels [m] (the CMM's point spacing along a wall); a longer path gets
-#: at most :data:`MAX_DEXELS` of them, evenly spread.
-DEXEL_SPACING = 1.0e-3
-MAX_DEXELS = 20_000
 #: Floor dexels across the cut, as fractions of the radius (0 = the path's centre line).
 FLOOR_OFFSETS = np.linspace(-0.9, 0.9, 7)
 #: Heights of wall dexels per point along the wall (of the force model's axial slices).
@@ -26,7 +23,7 @@ WALL_HEIGHTS = 6
 #: Angular step of the deflection table the envelope interpolates [rad].
 TABLE_STEP = math.radians(1.0)
 #: Dexels per block (one deflection table per block).
-_BLOCK = 512
+_BLOCK = 128
 
 
 @dataclass(frozen=True)
@@ -58,43 +55,28 @@ class PredictedPart:
         return self.floor[:, int(np.argmin(np.abs(self.offsets)))]
 
 
-def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray) -> SweptTool:
-    """The :class:`SweptTool` of a run's deflection model, tip positions and arc lengths."""
+def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
+               index: np.ndarray) -> SweptTool:
+    """The :class:`SweptTool` of a run's deflection model, tip positions and arc lengths, on
+    the samples ``index``."""
     e = model.engagement
     tool = model.tool
-    return SweptTool(centres=centres, frames=model.frames, s=s, cutting=e.exit > e.entry,
-                     radius=tool.diameter / 2.0, pitch=tool.pitch,
-                     lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
+    return SweptTool(centres=centres[index], frames=model.frames[index], s=s[index],
+                     cutting=(e.exit > e.entry)[index], radius=tool.diameter / 2.0,
+                     pitch=tool.pitch, lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
 
 
-def deflection_terms(model: DeflectionModel, first: int, last: int
+def deflection_terms(model: DeflectionModel, index: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, float]:
-    """d_k(psi) = c_k A + B of samples ``first .. last - 1`` on a uniform grid over one pitch:
+    """d_k(psi) = c_k A + B of the samples ``index`` on a uniform grid over one pitch:
     A (k, m, 3) [m per m of feed per tooth], B (k, m, 3) [m] and the pitch [rad]."""
     pitch = model.tool.pitch
     m = max(8, math.ceil(pitch / TABLE_STEP))
     grid_model = dataclasses.replace(model, angles=np.arange(m) * (pitch / m))
-    split, row = grid_model.forces(np.arange(first, last))
-    cr = model.compliance[first:last] @ model.frames[first:last]
+    split, row = grid_model.forces(index)
+    cr = model.compliance[index] @ model.frames[index]
     return (np.einsum("kij,kmj->kmi", cr, split.cutting[row]),
             np.einsum("kij,kmj->kmi", cr, split.edge[row]), pitch)
-
-
-def dexel_spacing(s: np.ndarray, cutting: np.ndarray) -> float:
-    """:data:`DEXEL_SPACING`, or wider where the cutting length needs more than
-    :data:`MAX_DEXELS` dexels [m]."""
-    cut_length = float(np.sum(np.diff(s)[cutting[1:]])) if s.size > 1 else 0.0
-    return max(DEXEL_SPACING, cut_length / MAX_DEXELS)
-
-
-def dexel_samples(s: np.ndarray, cutting: np.ndarray, spacing: float | None = None
-                  ) -> np.ndarray:
-    """Cutting samples about ``spacing`` (default :func:`dexel_spacing`) apart in arc
-    length."""
-    spacing = dexel_spacing(s, cutting) if spacing is None else spacing
-    bins = np.floor(s / spacing).astype(np.int64)
-    first = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
-    return first[cutting[first]]
 
 
 def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
@@ -103,22 +85,28 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
     """The part each feed profile of ``feeds`` ({law: (n,) [m/s]}) leaves (module docstring),
     with its surface location errors ``surfaces`` ({law: ...}). The forces of a block of
     dexels are computed once for every law; blocks run on the threads."""
-    tool = swept_tool(model, centres, s)
-    dexels = dexel_samples(s, tool.cutting)
-    sides = wall_sides(model, dexels)
+    e = model.engagement
+    samples = part_samples(s, e.exit > e.entry)
+    # every sample: sweeping every 0.25 mm instead moved walls by up to 8 um on the triangle
+    # slot (the envelope's peak is sharp next to a force jump) and 0.14 mm at a pocket's corners
+    sweep = np.arange(s.size)
+    tool = swept_tool(model, centres, s, sweep)
+    dexels = np.searchsorted(sweep, samples)  # rows of the swept tool
+    sides = wall_sides(model, samples)
     some = next(iter(surfaces.values()))
     rows = height_rows(some.heights.shape[1])
-    heights = some.heights[dexels][:, rows]
-    c = {law: np.maximum(np.asarray(f, dtype=float), 0.0) / model.feed_per_unit_c
+    at = {law: surface.rows_of(samples) for law, surface in surfaces.items()}
+    heights = some.heights[at[next(iter(surfaces))]][:, rows]
+    c = {law: np.maximum(np.asarray(f, dtype=float)[sweep], 0.0) / model.feed_per_unit_c
          for law, f in feeds.items()}
-    walls = {law: np.full((dexels.size, 2, heights.shape[1]), np.nan) for law in feeds}
-    floors = {law: np.full((dexels.size, FLOOR_OFFSETS.size), np.nan) for law in feeds}
+    walls = {law: np.full((samples.size, 2, heights.shape[1]), np.nan) for law in feeds}
+    floors = {law: np.full((samples.size, FLOOR_OFFSETS.size), np.nan) for law in feeds}
 
     def block(b: slice) -> int:
         d = dexels[b]
-        first = int(np.searchsorted(s, s[d[0]] - tool.radius, side="left"))
-        last = int(np.searchsorted(s, s[d[-1]] + tool.radius, side="right"))
-        a_terms, b_terms, pitch = deflection_terms(model, first, last)
+        first = int(np.searchsorted(tool.s, tool.s[d[0]] - tool.radius, side="left"))
+        last = int(np.searchsorted(tool.s, tool.s[d[-1]] + tool.radius, side="right"))
+        a_terms, b_terms, pitch = deflection_terms(model, sweep[first:last])
         for law in feeds:
             table = DeflectionTable(first, c[law][first:last, None, None] * a_terms + b_terms,
                                     pitch)
@@ -127,11 +115,11 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
         return d.size
 
     for_each_chunk(block, (slice(i, i + _BLOCK) for i in range(0, dexels.size, _BLOCK)))
-    return {law: PredictedPart(sample=dexels, s=s[dexels], segment=segment[dexels],
+    return {law: PredictedPart(sample=samples, s=s[samples], segment=segment[samples],
                                wall=walls[law], heights=heights, floor=floors[law],
                                offsets=FLOOR_OFFSETS,
-                               sle_wall=surfaces[law].wall[dexels][:, :, rows],
-                               sle_floor=surfaces[law].floor[dexels])
+                               sle_wall=surfaces[law].wall[at[law]][:, :, rows],
+                               sle_floor=surfaces[law].floor[at[law]])
             for law in feeds}
 
 

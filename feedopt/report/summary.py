@@ -246,7 +246,8 @@ def sample_place(prepared: Prepared, sample: int) -> dict:
 
 
 def surface_summary(ver) -> dict | None:
-    """The replayed surface location errors of a law [mm] and the part tolerances."""
+    """The replayed surface location errors of a law [mm] and the part tolerances: at every
+    sample in mode surface, else at the samples where the part is measured (``samples``)."""
     surface = ver.surface
     if surface is None:
         return None
@@ -257,7 +258,8 @@ def surface_summary(ver) -> dict | None:
     wall_limit, floor_limit = ver.tolerances
     return {"max_wall_error_mm": largest(surface.worst_wall()),
             "max_floor_error_mm": largest(np.abs(surface.floor)),
-            "wall_limit_mm": _finite(wall_limit / MM), "floor_limit_mm": _finite(floor_limit / MM)}
+            "wall_limit_mm": _finite(wall_limit / MM), "floor_limit_mm": _finite(floor_limit / MM),
+            "samples": int(surface.index.size)}
 
 
 def law_summary(prepared: Prepared, result: LawResult) -> dict:

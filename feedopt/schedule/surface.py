@@ -52,6 +52,10 @@ from feedopt.units import MM
 WALL_SIDES = ("left", "right")
 #: An engagement whose entry is within this of 0 (exit of pi) generates that wall [rad].
 WALL_ANGLE_TOL = 1e-6
+#: Arc length between the samples where the part is measured [m] (the CMM's point spacing
+#: along a wall), and the most of them on a long path (then evenly spread).
+PART_SPACING = 1.0e-3
+MAX_PART_SAMPLES = 10_000
 #: How far outside a slice's entry (exit) the out-of-cut side of its force jump is taken [rad]
 #: (the exit's critical angle is already 1e-9 rad inside).
 _OUTSIDE = 1e-9
@@ -207,10 +211,11 @@ def surface_feed_bound(model: DeflectionModel, wall_limit: float, floor_limit: f
 
 @dataclass(frozen=True)
 class SurfaceErrors:
-    """Predicted surface location errors along the path at one feed profile [m], material
-    left > 0: ``wall`` (n, 2, H) per side and height (NaN: no wall there), ``heights``
-    (n, H) above the tool tip, ``floor`` (n,) (NaN: not cutting)."""
+    """Predicted surface location errors at one feed profile [m], material left > 0, at the
+    path samples ``index`` (m,): ``wall`` (m, 2, H) per side and height (NaN: no wall
+    there), ``heights`` (m, H) above the tool tip, ``floor`` (m,) (NaN: not cutting)."""
 
+    index: np.ndarray
     wall: np.ndarray
     heights: np.ndarray
     floor: np.ndarray
@@ -226,37 +231,66 @@ class SurfaceErrors:
         return text
 
     def worst_wall(self) -> np.ndarray:
-        """(n,) largest |wall error| of each sample over sides and heights (NaN: no wall)."""
+        """(m,) largest |wall error| of each sample over sides and heights (NaN: no wall)."""
         w = np.abs(self.wall).reshape(self.wall.shape[0], -1)
         has = ~np.all(np.isnan(w), axis=1)
         out = np.full(w.shape[0], np.nan)
         out[has] = np.nanmax(w[has], axis=1)
         return out
 
+    def rows_of(self, samples: np.ndarray) -> np.ndarray:
+        """Rows of these errors at path ``samples`` (each must be in ``index``)."""
+        rows = np.searchsorted(self.index, samples)
+        if np.any(rows >= self.index.size) or np.any(self.index[np.minimum(
+                rows, self.index.size - 1)] != samples):
+            raise ValueError("surface errors: samples outside the evaluated index")
+        return rows
 
-def surface_errors(model: DeflectionModel, feed: np.ndarray,
+
+def surface_errors(model: DeflectionModel, feed: np.ndarray, index: np.ndarray | None = None,
                    progress: Callable[[int, int], None] | None = None) -> list[SurfaceErrors]:
     """Replay: the surface errors at path feeds ``feed`` [m/s], (n,) or (L, n) for L laws
-    (the lines of each chunk computed once for all of them)."""
+    (the lines of each chunk computed once for all of them), at the increasing samples
+    ``index`` (default: every sample)."""
     c_all = np.atleast_2d(np.asarray(feed, dtype=float)) / model.feed_per_unit_c
     if c_all.shape[1] != model.n:
         raise InputError(f"surface errors: {c_all.shape[1]} feeds for {model.n} samples")
+    index = np.arange(model.n) if index is None else np.asarray(index, dtype=np.intp)
     h = 1 if model.tool.helix == 0.0 else model.axial_slices
-    n = model.n
-    outs = [SurfaceErrors(np.full((n, 2, h), np.nan), np.zeros((n, h)), np.full(n, np.nan))
-            for _ in c_all]
+    m = index.size
+    outs = [SurfaceErrors(index, np.full((m, 2, h), np.nan), np.zeros((m, h)),
+                          np.full(m, np.nan)) for _ in c_all]
+    chunk_size = model.chunk_size()
 
-    def chunk(sl: slice | np.ndarray) -> int:
+    def chunk(rows: slice) -> int:
+        sl = index[rows]
         lines = surface_lines(model, sl)
         for out, c in zip(outs, c_all, strict=True):
-            out.wall[sl] = lines.walls(c[sl])
-            out.heights[sl] = lines.heights
-            out.floor[sl] = lines.floor(c[sl])
-        return lines.floor_a.shape[0]
+            out.wall[rows] = lines.walls(c[sl])
+            out.heights[rows] = lines.heights
+            out.floor[rows] = lines.floor(c[sl])
+        return sl.size
 
-    for_each_chunk(chunk, model.sample_chunks(model.chunk_size()),
-                   on_done=counting(progress, n))
+    for_each_chunk(chunk, (slice(i, i + chunk_size) for i in range(0, m, chunk_size)),
+                   on_done=counting(progress, m))
     return outs
+
+
+def part_spacing(s: np.ndarray, cutting: np.ndarray) -> float:
+    """Arc length between the samples where the part is measured: :data:`PART_SPACING`, or
+    wider where the cutting length needs more than :data:`MAX_PART_SAMPLES` [m]."""
+    cut_length = float(np.sum(np.diff(s)[cutting[1:]])) if s.size > 1 else 0.0
+    return max(PART_SPACING, cut_length / MAX_PART_SAMPLES)
+
+
+def part_samples(s: np.ndarray, cutting: np.ndarray, spacing: float | None = None
+                 ) -> np.ndarray:
+    """The cutting samples where the part is measured, about ``spacing`` (default
+    :func:`part_spacing`) apart in arc length (:mod:`feedopt.part`: its dexels)."""
+    spacing = part_spacing(s, cutting) if spacing is None else spacing
+    bins = np.floor(s / spacing).astype(np.int64)
+    first = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+    return first[cutting[first]]
 
 
 def zero_feed_message(what: str, field: str, limit: float, zero: np.ndarray,
