@@ -23,7 +23,7 @@ WALL_HEIGHTS = 6
 #: Angular step of the deflection table the envelope interpolates [rad].
 TABLE_STEP = math.radians(1.0)
 #: Dexels per block (one deflection table per block).
-_BLOCK = 128
+_BLOCK = 64
 
 
 @dataclass(frozen=True)
