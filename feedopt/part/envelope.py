@@ -68,12 +68,14 @@ class SweptTool:
 
 @dataclass(frozen=True)
 class DeflectionTable:
-    """d_k(psi) of samples ``first .. first + values.shape[0]`` on a uniform grid of ``m``
-    angles over one pitch: ``values`` (k, m, 3) [m], base frame."""
+    """d_k(psi) of some samples on a uniform grid of ``m`` angles over one pitch: ``values``
+    (r, m, 3) [m], base frame, row ``row_of[k - first]`` for sample k (default: the samples
+    ``first .. first + r - 1`` in order)."""
 
     first: int
     values: np.ndarray
     pitch: float
+    row_of: np.ndarray | None = None
 
     def at(self, k: np.ndarray, psi: np.ndarray) -> np.ndarray:
         """Deflections (..., 3) of samples ``k`` at rotation angles ``psi`` (same shape),
@@ -83,7 +85,8 @@ class DeflectionTable:
         i0 = np.floor(pos).astype(np.intp)
         w = (pos - i0)[..., None]
         i0 %= m
-        base = (k - self.first) * m
+        rows = k - self.first if self.row_of is None else self.row_of[k - self.first]
+        base = rows * m
         flat = self.values.reshape(-1, 3)  # one gather per end of the interval
         lo = np.take(flat, base + i0, axis=0)
         hi = np.take(flat, base + np.where(i0 + 1 == m, 0, i0 + 1), axis=0)

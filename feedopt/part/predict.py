@@ -66,6 +66,16 @@ def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
                      pitch=tool.pitch, lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
 
 
+def window_samples(s: np.ndarray, dexels: np.ndarray, radius: float) -> np.ndarray:
+    """The samples within ``radius`` of arc length of any of ``dexels`` (increasing): every
+    sample whose tool can reach them (the walls' reach is less than the radius)."""
+    lo = np.searchsorted(s, s[dexels] - radius, side="left")
+    hi = np.searchsorted(s, s[dexels] + radius, side="right")
+    counts = hi - lo
+    starts = np.repeat(lo - np.cumsum(counts) + counts, counts)
+    return np.unique(starts + np.arange(int(counts.sum())))
+
+
 def deflection_terms(model: DeflectionModel, index: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, float]:
     """d_k(psi) = c_k A + B of the samples ``index`` on a uniform grid over one pitch:
@@ -104,12 +114,13 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
 
     def block(b: slice) -> int:
         d = dexels[b]
-        first = int(np.searchsorted(tool.s, tool.s[d[0]] - tool.radius, side="left"))
-        last = int(np.searchsorted(tool.s, tool.s[d[-1]] + tool.radius, side="right"))
-        a_terms, b_terms, pitch = deflection_terms(model, sweep[first:last])
+        rows = window_samples(tool.s, d, tool.radius)
+        row_of = np.full(rows[-1] - rows[0] + 1, -1, dtype=np.intp)
+        row_of[rows - rows[0]] = np.arange(rows.size)
+        a_terms, b_terms, pitch = deflection_terms(model, sweep[rows])
         for law in feeds:
-            table = DeflectionTable(first, c[law][first:last, None, None] * a_terms + b_terms,
-                                    pitch)
+            table = DeflectionTable(int(rows[0]), c[law][rows, None, None] * a_terms + b_terms,
+                                    pitch, row_of)
             _sweep_block(tool, table, (d, sides[b], heights[b]),
                          (walls[law][b], floors[law][b]))
         return d.size
