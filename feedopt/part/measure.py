@@ -20,6 +20,8 @@ from feedopt.part.predict import PredictedPart
 from feedopt.schedule.surface import WALL_SIDES
 from feedopt.units import MM
 
+#: Most rows of the per-segment table (a program has a segment per move).
+MAX_SEGMENT_ROWS = 100
 #: Fewest wall points of a line for its flatness.
 MIN_FLATNESS_POINTS = 5
 
@@ -51,13 +53,22 @@ def _wall_row(part: PredictedPart, mine: np.ndarray, side: int, line: bool) -> d
             "sle_mean_error_mm": float(np.nanmean(sle)) / MM}
 
 
+def shown_segments(segment: np.ndarray) -> np.ndarray:
+    """The segments of the table, in path order: every segment with a dexel, or on a long
+    program the :data:`MAX_SEGMENT_ROWS` with the most dexels (the longest cuts)."""
+    found, counts = np.unique(segment, return_counts=True)
+    if found.size <= MAX_SEGMENT_ROWS:
+        return found
+    return np.sort(found[np.argsort(-counts, kind="stable")[:MAX_SEGMENT_ROWS]])
+
+
 def segment_table(part: PredictedPart, kinds: tuple[str, ...], depth: np.ndarray
                   ) -> list[dict]:
     """One row per segment that cuts: its number (1-based, as the thesis's), kind, walls
     (``left``/``right``: :func:`_wall_row`) and floor (depth [mm] below the top, as Table
     3.6, ``depth`` (n,) the nominal axial depth per sample [m])."""
     rows = []
-    for g in np.unique(part.segment):
+    for g in shown_segments(part.segment):
         mine = np.flatnonzero(part.segment == g)
         kind = kinds[int(g)] if int(g) < len(kinds) else "line"
         floor = part.floor[mine]

@@ -14,6 +14,9 @@ from feedopt.part.predict import PredictedPart, predict_parts
 from feedopt.schedule.surface import part_spacing, surface_lower_bound
 from feedopt.units import MM
 
+#: Longest path (samples) on which a norm-mode run also finds T* of planning for its part.
+OTHER_MODE_MAX_SAMPLES = 100_000
+
 COLUMNS = ("s_mm", "segment", "x_mm", "y_mm", "z_mm",
            "left_wall_mean_mm", "left_wall_min_mm", "left_wall_max_mm",
            "right_wall_mean_mm", "right_wall_min_mm", "right_wall_max_mm",
@@ -67,6 +70,7 @@ def part_summary(part: PredictedPart, kinds: tuple[str, ...], depth: np.ndarray)
     return {"max_overcut_wall_mm": extreme(-part.wall, np.nanmax),
             "max_proud_wall_mm": extreme(part.wall, np.nanmax),
             "deepest_floor_mm": extreme(part.floor, np.nanmin),
+            "segments_measured": int(np.unique(part.segment).size),
             "segments": segment_table(part, kinds, depth)}
 
 
@@ -113,6 +117,10 @@ def other_mode(prepared, law: str | None, result) -> dict | None:
     sc = prepared.scenario.deflection
     if law is None or result is None or sc.mode != "norm":
         return None
+    if prepared.problem.n > OTHER_MODE_MAX_SAMPLES:  # a whole extra force pass
+        return {"mode": "norm", "law": law, "skipped": (
+            f"{prepared.problem.n} samples: the surface bound is a force pass of its own; "
+            f"computed up to {OTHER_MODE_MAX_SAMPLES}")}
     surface = result.verification.surface
     if surface is None:
         return None

@@ -84,9 +84,8 @@ def deflection_terms(model: DeflectionModel, index: np.ndarray
     m = max(8, math.ceil(pitch / TABLE_STEP))
     grid_model = dataclasses.replace(model, angles=np.arange(m) * (pitch / m))
     split, row = grid_model.forces(index)
-    cr = model.compliance[index] @ model.frames[index]
-    return (np.einsum("kij,kmj->kmi", cr, split.cutting[row]),
-            np.einsum("kij,kmj->kmi", cr, split.edge[row]), pitch)
+    crt = np.swapaxes(model.compliance[index] @ model.frames[index], 1, 2)  # F @ (C R)^T
+    return split.cutting[row] @ crt, split.edge[row] @ crt, pitch
 
 
 def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
@@ -147,7 +146,7 @@ def _sweep_block(tool: SweptTool, table: DeflectionTable, dexels: tuple, out: tu
     ``out`` ((wall (b, 2, H), floor (b, F)) views)."""
     d, sides, heights = dexels
     wall, floor = out
-    largest = float(np.max(np.linalg.norm(table.values, axis=2)))
+    largest = math.sqrt(float(np.max(np.einsum("kmi,kmi->km", table.values, table.values))))
     reach = tool.radius * math.sin(math.acos(max(-1.0, 1.0 - 2.2 * largest / tool.radius)))
     for j, side in enumerate((1, -1)):
         has = sides[:, j]

@@ -27,6 +27,7 @@ from feedopt.report.part_table import (
     PART_TITLE,
     other_mode_line,
     part_rows,
+    shown_note,
 )
 from feedopt.report.plots import FIGURES, FigureSpec, caption_of, render_pngs
 from feedopt.report.tables import (
@@ -148,7 +149,8 @@ def _markdown(data: ReportData, figures: list[FigureSpec], title: str) -> str:
     part = part_rows(summary)
     if part:
         other = other_mode_line(summary)
-        md += [f"### {PART_TITLE}", "", markdown_table(PART_HEADERS, part), "", PART_NOTE, ""]
+        note = " ".join(x for x in (shown_note(summary), PART_NOTE) if x)
+        md += [f"### {PART_TITLE}", "", markdown_table(PART_HEADERS, part), "", note, ""]
         md += [other, ""] if other else []
     md += ["### Start and stop ramps", "", ramp_table(summary), "", RAMP_NOTE, ""]
     inputs = input_rows(summary)
@@ -221,8 +223,9 @@ def _html_tables(data: ReportData) -> list[str]:
     part = part_rows(summary)
     if part:
         other = other_mode_line(summary)
+        note = " ".join(x for x in (shown_note(summary), PART_NOTE) if x)
         out += [f"<h3>{PART_TITLE}</h3>", _boxed(html_table(PART_HEADERS, part)),
-                f"<p>{esc(PART_NOTE)}</p>"] + ([f"<p>{esc(other)}</p>"] if other else [])
+                f"<p>{esc(note)}</p>"] + ([f"<p>{esc(other)}</p>"] if other else [])
     out += ["<h3>Start and stop ramps</h3>", _boxed(ramp_table_html(summary)),
             f"<p>{esc(RAMP_NOTE)}</p>"]
     inputs = input_rows(summary)

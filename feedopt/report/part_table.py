@@ -13,6 +13,19 @@ PART_HEADERS = (("segment", True), ("kind", False), ("law", False),
                 ("left wall: mean distance [mm]", True), ("left wall: flatness [mm]", True),
                 ("right wall: mean distance [mm]", True), ("right wall: flatness [mm]", True),
                 ("floor: depth mean [mm]", True), ("floor: depth std [mm]", True))
+def shown_note(summary: Mapping) -> str | None:
+    """Which segments the table shows when it does not show them all."""
+    laws = part_laws(summary)
+    if not laws:
+        return None
+    entry = summary["part"]["laws"][laws[0]]
+    total, shown = entry.get("segments_measured"), len(entry.get("segments") or [])
+    if isinstance(total, int) and total > shown:
+        return (f"{shown} of the {total} segments measured: those with the most dexels "
+                "(the longest cuts).")
+    return None
+
+
 PART_NOTE = ("Material left > 0, overcut < 0; walls: left = +y of the feed (up-milling side), "
              "right = -y; mean distance to the nominal plane (thesis Eq. 3.28), flatness "
              "between two parallel planes (lines only); floor depth below the top (Table 3.6). "

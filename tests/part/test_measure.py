@@ -51,3 +51,17 @@ def test_segment_table_means_distances_and_depths():
     assert second["right_wall"] is None and second["left_wall"]["flatness_mm"] is None
     assert first["floor"]["depth_mean_mm"] == pytest.approx(-1.52)
     assert first["floor"]["depth_std_mm"] == pytest.approx(np.std([-3e-2, -1e-2, -2e-2]))
+
+
+def test_a_long_program_shows_its_longest_segments_only():
+    from feedopt.part.measure import MAX_SEGMENT_ROWS, shown_segments
+
+    rng = np.random.default_rng(3)
+    counts = rng.integers(1, 50, size=3 * MAX_SEGMENT_ROWS)
+    segment = np.repeat(np.arange(counts.size), counts)
+    shown = shown_segments(segment)
+    assert shown.size == MAX_SEGMENT_ROWS and np.all(np.diff(shown) > 0)
+    # every segment left out has at most as many dexels as the fewest shown
+    left_out = np.setdiff1d(np.arange(counts.size), shown)
+    assert counts[left_out].max() <= counts[shown].min()
+    assert np.array_equal(shown_segments(segment[segment < 10]), np.arange(10))
