@@ -68,29 +68,42 @@ class SweptTool:
 
 @dataclass(frozen=True)
 class DeflectionTable:
-    """d_k(psi) of some samples on a uniform grid of ``m`` angles over one pitch: ``values``
+    """d_k(psi) of some samples at knots over one pitch, linear between knots: ``values``
     (r, m, 3) [m], base frame, row ``row_of[k - first]`` for sample k (default: the samples
-    ``first .. first + r - 1`` in order)."""
+    ``first .. first + r - 1`` in order). ``knots`` (r, m) per row, increasing from 0 to the
+    pitch (both ends, the same value: periodic), e.g. a grid joined with both sides of every
+    angle where the force jumps, so that no interval straddles a jump; None: ``m`` uniform
+    angles ``j pitch / m``."""
 
     first: int
     values: np.ndarray
     pitch: float
     row_of: np.ndarray | None = None
+    knots: np.ndarray | None = None
 
     def at(self, k: np.ndarray, psi: np.ndarray) -> np.ndarray:
         """Deflections (..., 3) of samples ``k`` at rotation angles ``psi`` (same shape),
-        linear between grid angles, periodic over the pitch."""
-        m = self.values.shape[1]
-        pos = np.mod(psi, self.pitch) * (m / self.pitch)
-        i0 = np.floor(pos).astype(np.intp)
-        w = (pos - i0)[..., None]
-        i0 %= m
+        linear between knots, periodic over the pitch."""
         rows = k - self.first if self.row_of is None else self.row_of[k - self.first]
-        base = rows * m
+        m = self.values.shape[1]
+        if self.knots is None:
+            pos = np.mod(psi, self.pitch) * (m / self.pitch)
+            i0 = np.floor(pos).astype(np.intp)
+            w = (pos - i0)[..., None]
+            i0 %= m
+            lo, hi = rows * m + i0, rows * m + np.where(i0 + 1 == m, 0, i0 + 1)
+        else:
+            gap = 2.0 * self.pitch  # rows apart in one sorted key array
+            keys = (np.arange(self.knots.shape[0])[:, None] * gap + self.knots).ravel()
+            q = rows * gap + np.mod(psi, self.pitch)
+            hi = np.clip(np.searchsorted(keys, q, side="right"), rows * m + 1, rows * m + m - 1)
+            lo = hi - 1
+            width = keys[hi] - keys[lo]
+            w = (np.where(width > 0, (q - keys[lo]) / np.where(width > 0, width, 1.0), 0.0)
+                 )[..., None]
         flat = self.values.reshape(-1, 3)  # one gather per end of the interval
-        lo = np.take(flat, base + i0, axis=0)
-        hi = np.take(flat, base + np.where(i0 + 1 == m, 0, i0 + 1), axis=0)
-        return lo + w * (hi - lo)
+        a, b = np.take(flat, lo, axis=0), np.take(flat, hi, axis=0)
+        return a + w * (b - a)
 
 
 def _windows(tool: SweptTool, dexels: np.ndarray, reach: float) -> tuple[np.ndarray, ...]:

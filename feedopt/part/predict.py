@@ -5,7 +5,6 @@ samples (:mod:`feedopt.schedule.surface`)."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -13,6 +12,7 @@ import numpy as np
 
 from feedopt.parallel import for_each_chunk
 from feedopt.part.envelope import DeflectionTable, SweptTool, floor_envelope, wall_envelope
+from feedopt.process.forces import critical_angles
 from feedopt.schedule.deflection import DeflectionModel
 from feedopt.schedule.surface import SurfaceErrors, part_samples, wall_sides
 
@@ -20,6 +20,9 @@ from feedopt.schedule.surface import SurfaceErrors, part_samples, wall_sides
 FLOOR_OFFSETS = np.linspace(-0.9, 0.9, 7)
 #: Heights of wall dexels per point along the wall (of the force model's axial slices).
 WALL_HEIGHTS = 6
+#: Outside a slice's entry (exit) by this much, the other side of its force jump [rad]
+#: (as :mod:`feedopt.schedule.surface`).
+_OUTSIDE = 1e-9
 #: Angular step of the deflection table the envelope interpolates [rad].
 TABLE_STEP = math.radians(1.0)
 #: Dexels per block (one deflection table per block).
@@ -76,16 +79,32 @@ def window_samples(s: np.ndarray, dexels: np.ndarray, radius: float) -> np.ndarr
     return np.unique(starts + np.arange(int(counts.sum())))
 
 
-def deflection_terms(model: DeflectionModel, index: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray, float]:
-    """d_k(psi) = c_k A + B of the samples ``index`` on a uniform grid over one pitch:
-    A (k, m, 3) [m per m of feed per tooth], B (k, m, 3) [m] and the pitch [rad]."""
+def table_knots(model: DeflectionModel, index: np.ndarray) -> np.ndarray:
+    """(k, M) increasing rotation angles over one pitch for the samples ``index``: a uniform
+    grid (:data:`TABLE_STEP`), the pitch itself, and both sides of every angle where a slice
+    enters or leaves the cut (:func:`feedopt.process.forces.critical_angles`: its entry
+    columns are inside the cut, 1e-9 rad before is outside; its exit columns are 1e-9 rad
+    inside, 2e-9 rad later is outside)."""
     pitch = model.tool.pitch
     m = max(8, math.ceil(pitch / TABLE_STEP))
-    grid_model = dataclasses.replace(model, angles=np.arange(m) * (pitch / m))
-    split, row = grid_model.forces(index)
+    eng = model.engagement_slice(index)
+    crit = critical_angles(model.tool, eng.hull_only() if eng.pieces is not None else eng,
+                           model.axial_slices)
+    h = crit.shape[1] // 2
+    sides = np.concatenate([crit, crit[:, :h] - _OUTSIDE, crit[:, h:] + 2.0 * _OUTSIDE],
+                           axis=1)
+    grid = np.broadcast_to(np.arange(m + 1) * (pitch / m), (index.size, m + 1))
+    return np.sort(np.concatenate([grid, np.mod(sides, pitch)], axis=1), axis=1)
+
+
+def deflection_terms(model: DeflectionModel, index: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """d_k(psi) = c_k A + B of the samples ``index`` at :func:`table_knots` (k, M): A (k, M, 3)
+    [m per m of feed per tooth], B (k, M, 3) [m] and the knots [rad]."""
+    knots = table_knots(model, index)
+    split = model.forces_at(index, np.minimum(knots, np.nextafter(model.tool.pitch, 0.0)))
     crt = np.swapaxes(model.compliance[index] @ model.frames[index], 1, 2)  # F @ (C R)^T
-    return split.cutting[row] @ crt, split.edge[row] @ crt, pitch
+    return split.cutting @ crt, split.edge @ crt, knots
 
 
 def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
@@ -116,10 +135,10 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
         rows = window_samples(tool.s, d, tool.radius)
         row_of = np.full(rows[-1] - rows[0] + 1, -1, dtype=np.intp)
         row_of[rows - rows[0]] = np.arange(rows.size)
-        a_terms, b_terms, pitch = deflection_terms(model, sweep[rows])
+        a_terms, b_terms, knots = deflection_terms(model, sweep[rows])
         for law in feeds:
             table = DeflectionTable(int(rows[0]), c[law][rows, None, None] * a_terms + b_terms,
-                                    pitch, row_of)
+                                    tool.pitch, row_of, knots)
             _sweep_block(tool, table, (d, sides[b], heights[b]),
                          (walls[law][b], floors[law][b]))
         return d.size
