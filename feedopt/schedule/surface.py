@@ -232,7 +232,7 @@ class SurfaceErrors:
 
     def worst_wall(self) -> np.ndarray:
         """(m,) largest |wall error| of each sample over sides and heights (NaN: no wall)."""
-        w = np.abs(self.wall).reshape(self.wall.shape[0], -1)
+        w = np.abs(self.wall).reshape(self.wall.shape[0], int(np.prod(self.wall.shape[1:])))
         has = ~np.all(np.isnan(w), axis=1)
         out = np.full(w.shape[0], np.nan)
         out[has] = np.nanmax(w[has], axis=1)

@@ -325,3 +325,13 @@ def test_surface_feed_bound_is_tight_under_replay() -> None:
     active = np.where(bound.v_wall[:-1] <= bound.v_floor[:-1], worst[:-1] / wall_limit,
                       np.abs(at_v.floor[:-1]) / floor_limit)
     np.testing.assert_allclose(active, 1.0, rtol=1e-9)
+
+
+def test_no_sample_measured_gives_empty_errors_not_a_crash():
+    """An air cut has no sample where the part is measured (issue 33, found by the stock
+    scenarios' air-cut test)."""
+    from feedopt.schedule.surface import SurfaceErrors
+
+    empty = SurfaceErrors(np.zeros(0, dtype=np.intp), np.zeros((0, 2, 20)), np.zeros((0, 20)),
+                          np.zeros(0))
+    assert empty.worst_wall().shape == (0,) and empty.describe() == "no surface cut"
