@@ -81,6 +81,12 @@ class DeflectionTable:
     row_of: np.ndarray | None = None
     knots: np.ndarray | None = None
 
+    def __post_init__(self) -> None:
+        if self.knots is not None:  # rows 2 pitches apart in one sorted array, built once
+            keys = (np.arange(self.knots.shape[0])[:, None] * (2.0 * self.pitch)
+                    + self.knots).ravel()
+            object.__setattr__(self, "_keys", keys)
+
     def at(self, k: np.ndarray, psi: np.ndarray) -> np.ndarray:
         """Deflections (..., 3) of samples ``k`` at rotation angles ``psi`` (same shape),
         linear between knots, periodic over the pitch."""
@@ -93,9 +99,8 @@ class DeflectionTable:
             i0 %= m
             lo, hi = rows * m + i0, rows * m + np.where(i0 + 1 == m, 0, i0 + 1)
         else:
-            gap = 2.0 * self.pitch  # rows apart in one sorted key array
-            keys = (np.arange(self.knots.shape[0])[:, None] * gap + self.knots).ravel()
-            q = rows * gap + np.mod(psi, self.pitch)
+            keys = self._keys
+            q = rows * (2.0 * self.pitch) + np.mod(psi, self.pitch)
             hi = np.clip(np.searchsorted(keys, q, side="right"), rows * m + 1, rows * m + m - 1)
             lo = hi - 1
             width = keys[hi] - keys[lo]

@@ -15,7 +15,7 @@ from feedopt.schedule.surface import part_spacing, surface_lower_bound
 from feedopt.units import MM
 
 #: Longest path (samples) on which a norm-mode run also finds T* of planning for its part.
-OTHER_MODE_MAX_SAMPLES = 25_000
+OTHER_MODE_MAX_SAMPLES = 10_000
 
 COLUMNS = ("s_mm", "segment", "x_mm", "y_mm", "z_mm",
            "left_wall_mean_mm", "left_wall_min_mm", "left_wall_max_mm",

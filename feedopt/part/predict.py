@@ -24,7 +24,7 @@ WALL_HEIGHTS = 6
 #: (as :mod:`feedopt.schedule.surface`).
 _OUTSIDE = 1e-9
 #: Angular step of the deflection table the envelope interpolates [rad].
-TABLE_STEP = math.radians(1.0)
+TABLE_STEP = math.radians(2.0)
 #: Dexels per block (one deflection table per block).
 _BLOCK = 64
 
