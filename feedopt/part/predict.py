@@ -19,7 +19,7 @@ from feedopt.schedule.surface import SurfaceErrors, part_samples, wall_sides
 #: Floor dexels across the cut, as fractions of the radius (0 = the path's centre line).
 FLOOR_OFFSETS = np.linspace(-0.9, 0.9, 7)
 #: Heights of wall dexels per point along the wall (of the force model's axial slices).
-WALL_HEIGHTS = 6
+WALL_HEIGHTS = 4
 #: Outside a slice's entry (exit) by this much, the other side of its force jump [rad]
 #: (as :mod:`feedopt.schedule.surface`).
 _OUTSIDE = 1e-9

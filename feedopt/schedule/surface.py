@@ -54,7 +54,7 @@ WALL_SIDES = ("left", "right")
 WALL_ANGLE_TOL = 1e-6
 #: Arc length between the samples where the part is measured [m] (the CMM's point spacing
 #: along a wall), and the most of them on a long path (then evenly spread).
-PART_SPACING = 1.0e-3
+PART_SPACING = 2.0e-3
 MAX_PART_SAMPLES = 1_000
 #: How far outside a slice's entry (exit) the out-of-cut side of its force jump is taken [rad]
 #: (the exit's critical angle is already 1e-9 rad inside).
