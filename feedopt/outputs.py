@@ -136,7 +136,7 @@ def _export_job(prepared: Prepared, law: str, res: LawResult, samples, cycle: fl
 def _part_series(prepared: Prepared, parts: dict, drawn: dict):
     """The report's :class:`feedopt.report.data.PartSeries` of the drawn laws (None: no
     part); the floor map of the fastest verified non-baseline law (else the first)."""
-    from feedopt.part.output import floor_points
+    from feedopt.part.output import floor_points, row_means
     from feedopt.report.data import PartSeries
     from feedopt.verify import is_baseline
 
@@ -151,11 +151,7 @@ def _part_series(prepared: Prepared, parts: dict, drawn: dict):
                       prepared.tool.diameter / 2.0)[:, :2] * mm
 
     def mean(values):
-        flat = values.reshape(values.shape[0], -1)
-        has = np.any(np.isfinite(flat), axis=1)
-        out = np.full(flat.shape[0], np.nan)
-        out[has] = np.nanmean(flat[has], axis=1)
-        return out * mm
+        return row_means(values) * mm
 
     return PartSeries(
         laws=tuple(laws), s_mm=tuple(parts[law].s * mm for law in laws),

@@ -44,3 +44,16 @@ settings.register_profile("ci", max_examples=100, deadline=None, derandomize=Tru
 settings.register_profile("nightly", parent=settings.get_profile("ci"), max_examples=2000,
                           derandomize=False)
 settings.load_profile("ci")
+
+
+def load_benchmark(name: str):
+    """``benchmarks/<name>.py`` imported as module ``name`` (registered in sys.modules:
+    dataclasses look their module up)."""
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    return mod

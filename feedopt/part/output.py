@@ -30,6 +30,11 @@ HEADER = ("# predicted part: material left (mm, > 0 proud of the nominal surface
           "tip, base frame; empty: no such surface there\n")
 
 
+def row_means(values: np.ndarray) -> np.ndarray:
+    """Mean of each row of ``values`` (k, ...) over the rest, NaN where a row is all NaN."""
+    return _stats(values.reshape(values.shape[0], -1))[0]
+
+
 def _stats(values: np.ndarray) -> list[np.ndarray]:
     """Mean, min, max over the last axis, NaN where all are NaN."""
     has = np.any(np.isfinite(values), axis=-1)

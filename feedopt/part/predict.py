@@ -58,15 +58,13 @@ class PredictedPart:
         return self.floor[:, int(np.argmin(np.abs(self.offsets)))]
 
 
-def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
-               index: np.ndarray) -> SweptTool:
-    """The :class:`SweptTool` of a run's deflection model, tip positions and arc lengths, on
-    the samples ``index``."""
+def swept_tool(model: DeflectionModel, centres: np.ndarray, s: np.ndarray) -> SweptTool:
+    """The :class:`SweptTool` of a run's deflection model, tip positions and arc lengths."""
     e = model.engagement
     tool = model.tool
-    return SweptTool(centres=centres[index], frames=model.frames[index], s=s[index],
-                     cutting=(e.exit > e.entry)[index], radius=tool.diameter / 2.0,
-                     pitch=tool.pitch, lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
+    return SweptTool(centres=centres, frames=model.frames, s=s, cutting=e.exit > e.entry,
+                     radius=tool.diameter / 2.0, pitch=tool.pitch,
+                     lag_rate=2.0 * math.tan(tool.helix) / tool.diameter)
 
 
 def window_samples(s: np.ndarray, dexels: np.ndarray, radius: float) -> np.ndarray:
@@ -113,19 +111,17 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
     """The part each feed profile of ``feeds`` ({law: (n,) [m/s]}) leaves (module docstring),
     with its surface location errors ``surfaces`` ({law: ...}). The forces of a block of
     dexels are computed once for every law; blocks run on the threads."""
-    e = model.engagement
-    samples = part_samples(s, e.exit > e.entry)
-    # every sample: sweeping every 0.25 mm instead moved walls by up to 8 um on the triangle
-    # slot (the envelope's peak is sharp next to a force jump) and 0.14 mm at a pocket's corners
-    sweep = np.arange(s.size)
-    tool = swept_tool(model, centres, s, sweep)
-    dexels = np.searchsorted(sweep, samples)  # rows of the swept tool
+    # the tool is swept at every sample: every 0.25 mm instead moved walls by up to 8 um on
+    # the triangle slot (the envelope's peak is sharp next to a force jump) and 0.14 mm at a
+    # pocket's corners
+    tool = swept_tool(model, centres, s)
+    dexels = samples = part_samples(s, tool.cutting)
     sides = wall_sides(model, samples)
     some = next(iter(surfaces.values()))
     rows = height_rows(some.heights.shape[1])
     at = {law: surface.rows_of(samples) for law, surface in surfaces.items()}
     heights = some.heights[at[next(iter(surfaces))]][:, rows]
-    c = {law: np.maximum(np.asarray(f, dtype=float)[sweep], 0.0) / model.feed_per_unit_c
+    c = {law: np.maximum(np.asarray(f, dtype=float), 0.0) / model.feed_per_unit_c
          for law, f in feeds.items()}
     walls = {law: np.full((samples.size, 2, heights.shape[1]), np.nan) for law in feeds}
     floors = {law: np.full((samples.size, FLOOR_OFFSETS.size), np.nan) for law in feeds}
@@ -135,7 +131,7 @@ def predict_parts(model: DeflectionModel, centres: np.ndarray, s: np.ndarray,
         rows = window_samples(tool.s, d, tool.radius)
         row_of = np.full(rows[-1] - rows[0] + 1, -1, dtype=np.intp)
         row_of[rows - rows[0]] = np.arange(rows.size)
-        a_terms, b_terms, knots = deflection_terms(model, sweep[rows])
+        a_terms, b_terms, knots = deflection_terms(model, rows)
         for law in feeds:
             table = DeflectionTable(int(rows[0]), c[law][rows, None, None] * a_terms + b_terms,
                                     tool.pitch, row_of, knots)

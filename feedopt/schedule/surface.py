@@ -170,6 +170,16 @@ def wall_feed_per_tooth(a: np.ndarray, b: np.ndarray, limit: float) -> np.ndarra
     return np.where(missing, np.inf, c).reshape(c.shape[0], -1).min(axis=1)
 
 
+def largest_abs(wall: np.ndarray) -> np.ndarray:
+    """(k,) largest |value| of each row of ``wall`` (k, ...) over the rest, NaN where a row
+    is all NaN (no wall)."""
+    w = np.abs(wall).reshape(wall.shape[0], int(np.prod(wall.shape[1:])))
+    has = ~np.all(np.isnan(w), axis=1)
+    out = np.full(w.shape[0], np.nan)
+    out[has] = np.nanmax(w[has], axis=1)
+    return out
+
+
 @dataclass(frozen=True)
 class SurfaceBound:
     """Feed bounds of the part tolerances [m/s] (``inf`` where a limit is not set or the
@@ -191,11 +201,7 @@ def surface_feed_bound(model: DeflectionModel, wall_limit: float, floor_limit: f
 
     def chunk(sl: slice | np.ndarray) -> int:
         lines = surface_lines(model, sl)
-        walls = np.abs(lines.walls(np.zeros(lines.heights.shape[0])))
-        has_wall = ~np.all(np.isnan(walls.reshape(walls.shape[0], -1)), axis=1)
-        out.zero_feed_wall[sl] = np.where(
-            has_wall, np.nanmax(np.where(np.isnan(walls), -np.inf, walls).reshape(
-                walls.shape[0], -1), axis=1), np.nan)
+        out.zero_feed_wall[sl] = largest_abs(lines.walls(np.zeros(lines.heights.shape[0])))
         out.zero_feed_floor[sl] = lines.floor(np.zeros(lines.heights.shape[0]))
         if np.isfinite(wall_limit):
             out.v_wall[sl] = wall_feed_per_tooth(lines.wall_a, lines.wall_b, wall_limit) * unit
@@ -232,11 +238,7 @@ class SurfaceErrors:
 
     def worst_wall(self) -> np.ndarray:
         """(m,) largest |wall error| of each sample over sides and heights (NaN: no wall)."""
-        w = np.abs(self.wall).reshape(self.wall.shape[0], int(np.prod(self.wall.shape[1:])))
-        has = ~np.all(np.isnan(w), axis=1)
-        out = np.full(w.shape[0], np.nan)
-        out[has] = np.nanmax(w[has], axis=1)
-        return out
+        return largest_abs(self.wall)
 
     def rows_of(self, samples: np.ndarray) -> np.ndarray:
         """Rows of these errors at path ``samples`` (each must be in ``index``)."""

@@ -3,7 +3,6 @@ template, the table, the time limit; and the imitation programs of tests/data/gc
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import re
@@ -16,21 +15,14 @@ from pathlib import Path
 import pytest
 import yaml
 
+from tests.conftest import load_benchmark
+
 ROOT = Path(__file__).resolve().parents[2]
 POSTS = ROOT / "tests" / "data" / "gcode" / "posts"
 TEMPLATE = ROOT / "benchmarks" / "real_programs_scenario.yaml"
 
 
-def _load_script():
-    spec = importlib.util.spec_from_file_location(
-        "real_programs", ROOT / "benchmarks" / "real_programs.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["real_programs"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
-rp = _load_script()
+rp = load_benchmark("real_programs")
 
 
 def test_cause_folds_specifics_but_keeps_codes():

@@ -8,30 +8,20 @@ checker itself is tested on pages broken on purpose.
 
 from __future__ import annotations
 
-import importlib.util
 import io
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from feedopt.cli import main
+from tests.conftest import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
 
 
-def _load_driver():
-    spec = importlib.util.spec_from_file_location(
-        "headless_chromium", ROOT / "benchmarks" / "headless_chromium.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["headless_chromium"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)
-    return mod
-
-
-hc = _load_driver()
+hc = load_benchmark("headless_chromium")
 CHROMIUM = hc.find_chromium()
 pytestmark = pytest.mark.skipif(
     CHROMIUM is None, reason="no chromium on PATH (apt-get install chromium; docs/performance.md)")
