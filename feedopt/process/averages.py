@@ -19,7 +19,9 @@ import math
 
 import numpy as np
 
+from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
+from feedopt.process.general_forces import general_average
 from feedopt.process.tool import Tool
 
 
@@ -45,6 +47,9 @@ def average_forces(
     Closed form of Altintas [39] (module docstring), x feed, y normal, z axial; inputs
     broadcast against each other. ``exit <= entry`` gives zero force.
     """
+    if not tool.is_flat:  # ball, bull, tapered, face: per slice of the profile
+        return general_average(tool.profile, (tool.diameter, tool.teeth, 0.0), coeffs,
+                               (entry, exit, axial_depth), feed_per_tooth)
     st = np.asarray(entry, dtype=float)
     ex = np.asarray(exit, dtype=float)
     a = np.asarray(axial_depth, dtype=float)
@@ -64,7 +69,11 @@ def average_torque(
     feed_per_tooth: float | np.ndarray,
 ) -> np.ndarray:
     """Mean spindle torque D/2 Ft over one revolution [N m]:
-    N a D / (4 pi) [ -Ktc c cos phi + Kte phi ] from phi_st to phi_ex."""
+    N a D / (4 pi) [ -Ktc c cos phi + Kte phi ] from phi_st to phi_ex (a flat end mill;
+    InputError for another shape: its torque is r(z) dFt, from the force model)."""
+    if not tool.is_flat:
+        raise InputError(f"average_torque: the closed form is a flat end mill's, not a "
+                         f"{tool.shape.value}'s: use feedopt.process.forces")
     st = np.asarray(entry, dtype=float)
     ex = np.maximum(np.asarray(exit, dtype=float), st)
     c = np.asarray(feed_per_tooth, dtype=float)

@@ -30,6 +30,7 @@ from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.engagement import Engagement, validate_engagement
 from feedopt.process.force_sums import Flutes, in_cut_sum_blocks, rows_matmul, slice_lags
+from feedopt.process.general_forces import general_critical_angles, general_sums
 from feedopt.process.plunge import plunge_parts
 from feedopt.process.tool import Tool
 
@@ -221,7 +222,7 @@ def _one_interval_forces(tool: Tool, coeffs: CuttingCoefficients, engagement: En
     depth_of = depth_of.reshape(-1)
     offsets = np.arange(m) * _ROW_GAP
 
-    if depths.size > _MAX_TABLES:  # many distinct axial depths: sum slice by slice
+    if depths.size > _MAX_TABLES or not tool.is_flat:  # sum slice by slice
         step = max(1, _AT_CHUNK // m)
         for start in range(0, uniq.shape[0], step):
             u = np.arange(start, min(start + step, uniq.shape[0]))
@@ -275,6 +276,9 @@ def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) 
     validate_engagement(engagement, tool.flute_length)
     if engagement.pieces is not None:
         return _pieced_critical_angles(tool, engagement, slices)
+    if not tool.is_flat:
+        return general_critical_angles(tool.profile, _geometry(tool), (
+            engagement.entry, engagement.exit, engagement.axial_depth), slices)
     if tool.helix == 0.0:
         slices_used = 1  # every slice has lag 0
     else:
@@ -377,6 +381,9 @@ def _sums_at(
     :func:`_slice_lags`), so a slice at a boundary (:func:`critical_angles`) is classified
     identically.
     """
+    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
+        return general_sums(tool.profile, _geometry(tool), coeffs, phi,
+                            (entry, exit_, da * slices), slices)
     out = np.empty(phi.shape + (8,))
     blocks = in_cut_sum_blocks(phi, entry, exit_, da, _flutes(tool, slices),
                                max(1, _AT_CHUNK // max(1, phi.shape[1])))
@@ -390,6 +397,10 @@ def _with_plunge(split: ForceSplit, tool: Tool, coeffs: CuttingCoefficients,
                  plunge: np.ndarray) -> ForceSplit:
     """``split`` (side edges) plus the end-edge force and torque of the plunging samples
     (:func:`feedopt.process.plunge.plunge_parts`); InputError without plunge coefficients."""
+    if not tool.is_flat:
+        i = int(np.argmax(plunge > 0))
+        raise InputError(f"sample {i} plunges along the tool axis with a {tool.shape.value} "
+                         "cutter: the end-cutting model is a flat end mill's")
     if coeffs.plunge is None:
         i = int(np.argmax(plunge > 0))
         raise InputError(f"sample {i} plunges along the tool axis, but the cutting "
@@ -525,6 +536,11 @@ def _slice_lags(tool: Tool, a: np.ndarray | float, slices: int) -> np.ndarray:
     used by every force routine, so that they classify a slice at a boundary identically.
     """
     return slice_lags(_helix_rate(tool), np.asarray(a, dtype=float) / slices, np.arange(slices))
+
+
+def _geometry(tool: Tool) -> tuple[float, int, float]:
+    """(D, N, helix rate) of a general cutter for :mod:`feedopt.process.general_forces`."""
+    return tool.diameter, tool.teeth, _helix_rate(tool)
 
 
 def _helix_rate(tool: Tool) -> float:

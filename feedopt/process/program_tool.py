@@ -3,14 +3,16 @@
 CAM posts write the tool into the program as a comment (Fusion/HSM ``(T1 D=3.175 CR=0. -
 ZMIN=-5. - flat end mill)``, Mastercam, CAMotics; read by :mod:`feedopt.gcode`). The force
 model and the stock sweep use the scenario's tool file (teeth, helix and flute length are in
-no header), so the header is a cross-check: a diameter that differs, or a shape feedopt does
-not model (ball, bull nose, chamfer, drill), means the plan would be for another cutter.
+no header), so the header is a cross-check: a diameter, shape (flat, ball, bull nose, chamfer)
+or corner radius that differs from the tool file's, or a drill, means the plan would be for
+another cutter.
 """
 
 from __future__ import annotations
 
 from feedopt.errors import InputError
 from feedopt.gcode.moves import ToolHeader, ToolShape
+from feedopt.process.cutter import CutterShape
 from feedopt.units import MM
 
 #: Largest difference between the header's and the tool file's diameter [mm]: posts write
@@ -31,24 +33,23 @@ def header_for(headers: tuple[ToolHeader, ...], tool_number: int | None) -> Tool
     return None
 
 
+#: The tool-file shapes a program comment's shape may describe.
+_SHAPES = {ToolShape.FLAT: (CutterShape.FLAT,), ToolShape.BALL: (CutterShape.BALL,),
+           ToolShape.BULL: (CutterShape.BULL,),
+           ToolShape.CHAMFER: (CutterShape.TAPERED, CutterShape.FACE)}
+
+
 def check_tool_header(header: ToolHeader | None, tool, source: str, tool_file: str) -> list[str]:
-    """InputError when the program's tool comment contradicts the tool file; a warning when
-    it gives no diameter to compare; nothing when it agrees (or there is no comment).
+    """InputError when the program's tool comment contradicts the tool file (its shape, its
+    diameter or its corner radius); a warning when it gives no diameter to compare; nothing
+    when it agrees (or there is no comment).
 
     ``tool`` is a :class:`feedopt.process.tool.Tool` (SI units).
     """
     if header is None:
         return []
     where = f"{source} line {header.line}: tool comment ({header.text.strip()})"
-    if header.shape not in (ToolShape.FLAT, ToolShape.OTHER) or (
-            header.corner_radius_mm is not None and header.corner_radius_mm > 1e-9):
-        shape = header.shape.value
-        if header.corner_radius_mm:
-            shape += f" with a corner radius of {header.corner_radius_mm:g} mm"
-        raise InputError(
-            f"{where}: the program was made for a {shape}; feedopt models flat end mills "
-            "(no corner radius) only, in the force model and in the stock: plan it with the "
-            "flat end mill the tool file describes only if that is what will cut")
+    _check_shape(header, tool, where, tool_file)
     if header.diameter_mm is None:
         return [f"{where}: no diameter to compare with the tool file {tool_file}"]
     d_file = tool.diameter / MM
@@ -58,6 +59,30 @@ def check_tool_header(header: ToolHeader | None, tool, source: str, tool_file: s
             f"{tool_file} describes {d_file:g} mm: the tool path was computed for the "
             "program's cutter; use a tool file for that cutter (scenario field tool)")
     return []
+
+
+def _check_shape(header: ToolHeader, tool, where: str, tool_file: str) -> None:
+    """InputError when the comment names another shape or corner radius than the tool file
+    (a comment of shape OTHER names none; a drill is not a milling cutter)."""
+    rc_file = tool.corner_radius / MM
+    rc = header.corner_radius_mm
+    shape = header.shape
+    if shape is ToolShape.FLAT and rc is not None and rc > 1e-9:
+        shape = ToolShape.BULL  # Fusion writes "flat end mill" with CR= for a bull nose
+    if shape is ToolShape.DRILL:
+        raise InputError(f"{where}: the program was made for a drill; feedopt models milling "
+                         "cutters (flat, ball, bull, tapered, face mills)")
+    allowed = _SHAPES.get(shape)
+    if allowed is not None and tool.shape not in allowed:
+        raise InputError(
+            f"{where}: the program was made for a {shape.value}, the tool file {tool_file} "
+            f"describes a {tool.shape.value} cutter (shape: {tool.shape.value}): the tool "
+            "path was computed for the program's cutter; use a tool file for it (shape: "
+            f"{' or '.join(s.value for s in allowed)})")
+    if rc is not None and shape is not ToolShape.CHAMFER and abs(rc - rc_file) > DIAMETER_TOL_MM:
+        raise InputError(
+            f"{where}: the program's corner radius is {rc:g} mm, the tool file {tool_file} "
+            f"has {rc_file:g} mm (corner_radius_mm; a ball-nose's is half its diameter)")
 
 
 def check_program_tool(path, tool, source: str, tool_file: str) -> list[str]:

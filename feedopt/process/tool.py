@@ -1,4 +1,5 @@
-"""Cutter geometry (thesis Table A.1) and its YAML reader."""
+"""Cutter geometry (thesis Table A.1; general shapes, :mod:`feedopt.process.cutter`), its
+bending (:mod:`feedopt.process.tool_bending`) and its YAML reader."""
 
 from __future__ import annotations
 
@@ -8,7 +9,12 @@ from pathlib import Path
 
 from feedopt.errors import InputError
 from feedopt.process._io import check_keys, number, read_yaml_mapping, text
+from feedopt.process.cutter import CutterShape, Profile
+from feedopt.process.tool_bending import YOUNGS_MODULUS_PA, ToolBeam, tip_compliance_m_per_n
 from feedopt.units import MM
+
+#: Tool-tip stiffness in a tool file is in N/um; this many N/m per N/um.
+N_PER_M_PER_N_PER_UM = 1e6
 
 
 @dataclass(frozen=True)
@@ -19,13 +25,31 @@ class Tool:
     ----------
     name : str
     diameter : float
-        Mill diameter D [m].
+        Mill diameter D [m] (a tapered mill's tip, a face mill's cutting diameter Dc at the
+        insert tips; :mod:`feedopt.process.cutter`).
     teeth : int
-        Number of flutes N.
+        Number of flutes (inserts) N.
     helix : float
         Helix angle beta [rad] (0 = straight teeth).
     flute_length : float
         Length of cut [m]; the largest usable axial depth.
+    shape : CutterShape
+        flat (default), ball, bull, tapered or face.
+    corner_radius : float
+        Corner (ball, bull) or insert nose radius rc [m]; D/2 for a ball-nose.
+    taper : float
+        Half angle of a tapered mill's side [rad]; for a face mill 90 deg minus the insert's
+        entering (lead) angle kappa_r. 0 otherwise.
+    stickout : float or None
+        Length [m] from the holder face to the tip; None: the tool is taken as rigid unless
+        ``tip_stiffness`` is given.
+    shank_diameter : float or None
+        Shank diameter [m] (default D).
+    youngs_modulus : float or None
+        E of the tool material [Pa] (needed with ``stickout``).
+    tip_stiffness : float or None
+        Measured lateral stiffness at the tool tip, holder included [N/m]; replaces the
+        cantilever model.
     """
 
     name: str
@@ -33,6 +57,13 @@ class Tool:
     teeth: int
     helix: float
     flute_length: float
+    shape: CutterShape = CutterShape.FLAT
+    corner_radius: float = 0.0
+    taper: float = 0.0
+    stickout: float | None = None
+    shank_diameter: float | None = None
+    youngs_modulus: float | None = None
+    tip_stiffness: float | None = None
 
     def __post_init__(self) -> None:
         validate_tool(self)
@@ -42,9 +73,49 @@ class Tool:
         """Tooth pitch angle 2 pi / N [rad]."""
         return 2.0 * math.pi / self.teeth
 
+    @property
+    def profile(self) -> Profile:
+        """The envelope of the cutting edges (:mod:`feedopt.process.cutter`)."""
+        rc = self.corner_radius
+        return Profile(r0=self.diameter / 2.0 - rc, corner=rc, kappa1=math.pi / 2 - self.taper)
+
+    @property
+    def is_flat(self) -> bool:
+        """A cylindrical flat end mill (thesis Algorithm 1's cutter)."""
+        return self.profile.is_cylinder
+
+    @property
+    def helix_rate(self) -> float:
+        """Helix lag per unit height 2 tan(beta) / D [rad/m]."""
+        return 2.0 * math.tan(self.helix) / self.diameter
+
+    @property
+    def bends(self) -> bool:
+        """True when the tool's own compliance is modelled (a stickout or a tip stiffness)."""
+        return self.stickout is not None or self.tip_stiffness is not None
+
+    def tip_compliance(self) -> tuple[float, float]:
+        """(lateral, axial) compliance at the tool tip [m/N]: the measured tip stiffness, or
+        the stepped cantilever of :mod:`feedopt.process.tool_bending`; (0, 0) when rigid."""
+        if self.tip_stiffness is not None:
+            axial = 0.0 if self.stickout is None else tip_compliance_m_per_n(self.beam())[1]
+            return 1.0 / self.tip_stiffness, axial
+        if self.stickout is None:
+            return 0.0, 0.0
+        return tip_compliance_m_per_n(self.beam())
+
+    def beam(self) -> ToolBeam:
+        """The tool as a stepped cantilever (needs ``stickout`` and ``youngs_modulus``)."""
+        return ToolBeam(diameter_m=self.diameter, flute_length_m=self.flute_length,
+                        stickout_m=self.stickout,
+                        shank_diameter_m=self.shank_diameter or self.diameter,
+                        youngs_modulus_pa=self.youngs_modulus)
+
 
 #: Most cutting edges a tool may have (a large face mill has a few dozen inserts).
 MAX_TEETH = 100
+#: Largest taper half angle [deg] (a 160 deg V-bit).
+MAX_TAPER_DEG = 80.0
 
 
 def validate_tool(tool: Tool, where: str = "tool") -> None:
@@ -63,23 +134,69 @@ def validate_tool(tool: Tool, where: str = "tool") -> None:
         raise InputError(
             f"{where}.flute_length must be > 0 mm, got {tool.flute_length / MM:g} mm"
         )
+    _validate_shape(tool, where)
+    if tool.stickout is not None and tool.youngs_modulus is None:
+        raise InputError(f"{where}: a stickout needs the tool material's Young's modulus "
+                         f"(material: one of {', '.join(YOUNGS_MODULUS_PA)})")
+    if tool.stickout is not None:
+        tool.beam()  # its own checks
+    if tool.tip_stiffness is not None and not (math.isfinite(tool.tip_stiffness)
+                                               and tool.tip_stiffness > 0):
+        raise InputError(f"{where}.tip_stiffness must be > 0 N/um")
+
+
+def _validate_shape(tool: Tool, where: str) -> None:
+    """The corner radius and taper fit the shape (:class:`CutterShape`)."""
+    shape, rc, r = tool.shape, tool.corner_radius, tool.diameter / 2.0
+    taper = math.degrees(tool.taper)
+    if not (math.isfinite(rc) and 0.0 <= rc <= r * (1 + 1e-12)):
+        raise InputError(f"{where}.corner_radius must be in [0, D/2 = {r / MM:g}] mm, got "
+                         f"{rc / MM:g} mm")
+    rules = {
+        CutterShape.FLAT: (rc == 0.0 and taper == 0.0, "a flat end mill has no corner radius "
+                           "and no taper (shape: bull or tapered)"),
+        CutterShape.BALL: (rc == r and taper == 0.0, "a ball-nose has corner radius D/2 and "
+                           "no taper (shape: tapered with corner_radius_mm for a tapered ball)"),
+        CutterShape.BULL: (0.0 < rc < r and taper == 0.0, "a bull-nose has 0 < corner radius "
+                           "< D/2 and no taper"),
+        CutterShape.TAPERED: (0.0 < taper <= MAX_TAPER_DEG, f"a tapered mill needs taper_deg in "
+                              f"(0, {MAX_TAPER_DEG:g}]"),
+        CutterShape.FACE: (0.0 <= taper < 90.0 and rc < r, "a face mill needs lead_angle_deg in "
+                           "(0, 90] and a nose radius below D/2"),
+    }
+    ok, rule = rules[shape]
+    if not ok:
+        raise InputError(f"{where}: shape {shape.value} with corner radius {rc / MM:g} mm and "
+                         f"taper {taper:g} deg: {rule}")
 
 
 #: Keys of a tool file: the ones the model uses, then free text and informative lengths.
 TOOL_KEYS = ("name", "diameter_mm", "teeth", "helix_deg", "flute_length_mm", "source",
-             "material", "overall_length_mm", "shank_diameter_mm")
-_FLAT_ONLY = ("feedopt models square (flat) end mills only: a corner radius, ball nose or "
-              "other shape is not supported")
-_TOOL_HINTS = {"corner": _FLAT_ONLY, "ball": _FLAT_ONLY, "shape": _FLAT_ONLY,
-               "type": _FLAT_ONLY, "radius": _FLAT_ONLY}
+             "material", "overall_length_mm", "shank_diameter_mm", "shape", "corner_radius_mm",
+             "taper_deg", "lead_angle_deg", "stickout_mm", "youngs_modulus_gpa",
+             "tip_stiffness_n_per_um")
+_TOOL_HINTS = {word: f"use {key}" for word, key in (
+    ("corner", "corner_radius_mm"), ("nose", "corner_radius_mm (an insert's nose radius)"),
+    ("radius", "corner_radius_mm"), ("type", "shape (flat, ball, bull, tapered, face)"),
+    ("ball", "shape: ball"), ("stick", "stickout_mm"), ("overhang", "stickout_mm"),
+    ("projection", "stickout_mm"), ("entering", "lead_angle_deg"), ("lead", "lead_angle_deg"),
+    ("young", "youngs_modulus_gpa"), ("modulus", "youngs_modulus_gpa"),
+    ("stiffness", "tip_stiffness_n_per_um"))}
 
 
 def load_tool(path: str | Path) -> Tool:
     """Read a cutter YAML file (strict: unknown keys are refused).
 
-    Fields: ``name``, ``diameter_mm``, ``teeth``, ``helix_deg``, ``flute_length_mm``; optional
-    and not used by the model: ``source`` and ``material`` (text), ``overall_length_mm`` and
-    ``shank_diameter_mm`` (> 0; the overall length at least the flute length).
+    Fields: ``name``, ``diameter_mm``, ``teeth``, ``helix_deg``, ``flute_length_mm``; the
+    shape (:mod:`feedopt.process.cutter`): ``shape`` (flat, ball, bull, tapered, face; default
+    flat), ``corner_radius_mm`` (bull; a tapered mill's tip, a face mill's insert nose; a
+    ball's is D/2), ``taper_deg`` (tapered: half angle), ``lead_angle_deg`` (face: the
+    entering angle, 90 for square shoulder inserts); the bending
+    (:mod:`feedopt.process.tool_bending`): ``stickout_mm`` (holder face to tip; without it
+    the tool is rigid), ``material`` (carbide, hss or steel give E; other text needs
+    ``youngs_modulus_gpa``), ``shank_diameter_mm``, ``tip_stiffness_n_per_um`` (measured,
+    holder included; replaces the cantilever); informative: ``source``,
+    ``overall_length_mm``.
     """
     data = read_yaml_mapping(path, "tool")
     where = f"tool file {str(path)!r}"
@@ -100,13 +217,70 @@ def load_tool(path: str | Path) -> Tool:
     if flute_mm <= 0:
         raise InputError(f"{where}.flute_length_mm: must be > 0 mm, got {flute_mm:g}")
     _check_informative(data, where, flute_mm)
-    return Tool(
-        name=text(data, "name", where, Path(path).stem),
-        diameter=diameter_mm * MM,
-        teeth=teeth,
-        helix=math.radians(helix_deg),
-        flute_length=flute_mm * MM,
-    )
+    shape, corner_mm, taper_deg = _shape_fields(data, where, diameter_mm)
+    try:
+        return Tool(
+            name=text(data, "name", where, Path(path).stem),
+            diameter=diameter_mm * MM, teeth=teeth, helix=math.radians(helix_deg),
+            flute_length=flute_mm * MM, shape=shape, corner_radius=corner_mm * MM,
+            taper=math.radians(taper_deg), **_bending_fields(data, where),
+        )
+    except InputError as err:
+        raise InputError(f"{where}: {err}") from None
+
+
+def _shape_fields(data: dict, where: str, diameter_mm: float) -> tuple[CutterShape, float, float]:
+    """(shape, corner radius [mm], taper [deg]) of a tool file."""
+    name = data.get("shape", "flat")
+    try:
+        shape = CutterShape(name)
+    except ValueError:
+        raise InputError(f"{where}.shape: {name!r} is not one of "
+                         f"{', '.join(s.value for s in CutterShape)}") from None
+    corner = number(data, "corner_radius_mm", where) if "corner_radius_mm" in data else None
+    if shape is CutterShape.BALL and corner is None:
+        corner = diameter_mm / 2.0
+    taper = number(data, "taper_deg", where) if "taper_deg" in data else 0.0
+    if "taper_deg" in data and shape is not CutterShape.TAPERED:
+        raise InputError(f"{where}.taper_deg: only a tapered mill (shape: tapered) has a taper")
+    if "lead_angle_deg" in data:
+        if shape is not CutterShape.FACE:
+            raise InputError(f"{where}.lead_angle_deg: only a face mill (shape: face) has a "
+                             "lead angle")
+        lead = number(data, "lead_angle_deg", where)
+        if not 0 < lead <= 90:
+            raise InputError(f"{where}.lead_angle_deg: must be in (0, 90] deg, got {lead:g}")
+        taper = 90.0 - lead
+    elif shape is CutterShape.FACE:
+        raise InputError(f"{where}: a face mill needs lead_angle_deg (its inserts' entering "
+                         "angle: 90 for square shoulder, 45 for chamfered inserts)")
+    return shape, 0.0 if corner is None else corner, taper
+
+
+def _bending_fields(data: dict, where: str) -> dict:
+    """stickout, shank diameter, E and measured tip stiffness of a tool file (SI)."""
+    out: dict = {}
+    for key, field, scale in (("stickout_mm", "stickout", MM),
+                              ("shank_diameter_mm", "shank_diameter", MM),
+                              ("youngs_modulus_gpa", "youngs_modulus", 1e9),
+                              ("tip_stiffness_n_per_um", "tip_stiffness", N_PER_M_PER_N_PER_UM)):
+        if data.get(key) is not None:
+            value = number(data, key, where)
+            if not value > 0:
+                raise InputError(f"{where}.{key}: must be > 0, got {value:g}")
+            out[field] = value * scale
+    if "stickout" in out and "youngs_modulus" not in out:
+        material = str(data.get("material") or "").strip().lower()
+        if material not in YOUNGS_MODULUS_PA:
+            raise InputError(
+                f"{where}: stickout_mm needs the tool's Young's modulus: material one of "
+                f"{', '.join(YOUNGS_MODULUS_PA)} (got {data.get('material')!r}) or "
+                "youngs_modulus_gpa")
+        out["youngs_modulus"] = YOUNGS_MODULUS_PA[material]
+    if "stickout" in out and out["stickout"] > float(data.get("overall_length_mm") or math.inf
+                                                     ) * MM:
+        raise InputError(f"{where}.stickout_mm: longer than overall_length_mm")
+    return out
 
 
 def _check_informative(data: dict, where: str, flute_mm: float) -> None:

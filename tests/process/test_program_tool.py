@@ -4,6 +4,7 @@ import pytest
 
 from feedopt.errors import InputError
 from feedopt.gcode.moves import ToolHeader, ToolShape
+from feedopt.process.cutter import CutterShape
 from feedopt.process.program_tool import check_tool_header, header_for
 from feedopt.process.tool import Tool
 from feedopt.units import MM
@@ -30,9 +31,35 @@ def test_diameter_mismatch_names_line_both_diameters_and_field():
 
 @pytest.mark.parametrize("shape,cr", [(ToolShape.BALL, 3.0), (ToolShape.BULL, 0.5),
                                       (ToolShape.CHAMFER, 0.0), (ToolShape.FLAT, 0.5)])
-def test_shapes_feedopt_does_not_model_are_refused(shape, cr):
-    with pytest.raises(InputError, match="feedopt models flat end mills"):
+def test_a_header_of_another_shape_than_the_tool_file_is_refused(shape, cr):
+    with pytest.raises(InputError, match="the program was made for a .*flat cutter"):
         check_tool_header(_header(cr=cr, shape=shape), TOOL, "p.nc", "tool.yaml")
+
+
+def test_a_drill_is_refused():
+    with pytest.raises(InputError, match="drill"):
+        check_tool_header(_header(shape=ToolShape.DRILL), TOOL, "p.nc", "tool.yaml")
+
+
+BALL = Tool(name="6 mm ball", diameter=6.0 * MM, teeth=2, helix=0.5, flute_length=20 * MM,
+            shape=CutterShape.BALL, corner_radius=3.0 * MM)
+BULL = Tool(name="6 mm bull", diameter=6.0 * MM, teeth=2, helix=0.5, flute_length=20 * MM,
+            shape=CutterShape.BULL, corner_radius=0.5 * MM)
+
+
+def test_matching_ball_and_bull_headers_pass():
+    assert check_tool_header(_header(cr=3.0, shape=ToolShape.BALL), BALL, "p", "t") == []
+    assert check_tool_header(_header(cr=None, shape=ToolShape.BALL), BALL, "p", "t") == []
+    assert check_tool_header(_header(cr=0.5, shape=ToolShape.BULL), BULL, "p", "t") == []
+    # Fusion writes a bull nose as "flat end mill" with CR=
+    assert check_tool_header(_header(cr=0.5, shape=ToolShape.FLAT), BULL, "p", "t") == []
+
+
+def test_corner_radius_mismatch_names_both():
+    with pytest.raises(InputError, match="corner radius is 1 mm.* 0.5 mm"):
+        check_tool_header(_header(cr=1.0, shape=ToolShape.BULL), BULL, "p.nc", "tool.yaml")
+    with pytest.raises(InputError, match="ball end mill.*bull cutter"):
+        check_tool_header(_header(cr=3.0, shape=ToolShape.BALL), BULL, "p.nc", "tool.yaml")
 
 
 def test_header_without_diameter_is_a_warning():

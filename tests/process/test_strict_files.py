@@ -39,8 +39,10 @@ def test_the_bundled_files_load():
 
 @pytest.mark.parametrize(("key", "want"), [
     ("flute_lenght_mm", "did you mean 'flute_length_mm'?"),
-    ("corner_radiuss_mm", "square (flat) end mills only"),
-    ("shape", "square (flat) end mills only"),
+    ("corner_radiuss_mm", "did you mean 'corner_radius_mm'?"),
+    ("nose_r", "use corner_radius_mm"),
+    ("cutter_type", "use shape (flat, ball, bull, tapered, face)"),
+    ("overhang", "use stickout_mm"),
     ("colour", ""),
 ])
 def test_an_unknown_tool_key_is_refused(tmp_path, key, want):

@@ -1,0 +1,213 @@
+"""Milling forces of a general end mill (ball-nose, bull-nose, tapered, face mill): Engin &
+Altintas 2001 on the profile of :mod:`feedopt.process.cutter`.
+
+Each slice j of the profile (radius r_j, axial immersion kappa_j, chip width db = ds) of tooth
+t sits at ``theta = mod(phi + t p - psi_j, 2 pi)`` with the helix lag of a constant lead,
+``psi_j = 2 tan(beta) z_j / D`` (E&A Eq. 6 for a helical ball end: the lead of the cylinder
+carried onto the nose; on a flat end mill the lag of Algorithm 1). In the cut it takes the
+chip ``h = c sin(theta) sin(kappa_j)`` (E&A Eq. 11) and the edge forces (E&A Eq. 12)::
+
+    dFt = db (Ktc h + Kte)    dFr = db (Krc h + Kre)    dFa = db (Kac h + Kae)
+
+with the coefficients of the flat-end-mill calibration (per unit chip width: on a cylinder
+db = da, so the calibration carries over). They act on the tool along the tangential
+direction ``(-cos theta, sin theta, 0)``, the edge normal ``n = (sin kappa sin theta,
+sin kappa cos theta, -cos kappa)`` (radial force pushing into the tool, -dFr n) and the
+profile tangent ``(cos kappa sin theta, cos kappa cos theta, sin kappa)`` (axial force; on a
+cylinder +z, the sign convention of :mod:`feedopt.process.forces`, which is E&A's with the
+axial direction reversed)::
+
+    dFx = -dFt cos(theta) - dFr sin(kappa) sin(theta) + dFa cos(kappa) sin(theta)
+    dFy = +dFt sin(theta) - dFr sin(kappa) cos(theta) + dFa cos(kappa) cos(theta)
+    dFz = +dFr cos(kappa) + dFa sin(kappa)
+
+and the spindle torque is ``r_j dFt``. At kappa = 90 deg these are the cylinder's equations.
+
+Engagement by height
+--------------------
+An :class:`~feedopt.process.engagement.Engagement` gives the material in front of the cutter
+as angles at the nominal radius R = D / 2, i.e. the lateral positions ``y = R cos(phi)`` of the
+material's sides (an entry at 0 or an exit at 180 deg: the material reaches past the rim), and
+its depth a above the tip. A slice at height z < a of radius r meets that material over
+``[arccos(min(y_hi, r) / r), arccos(max(y_lo, -r) / r))``: a ball-nose in a slot of depth
+a < R engages the full half of every slice below a, a bull-nose at a step of radial depth ae
+engages only the slices with r > R - ae, from 0 to arccos((R - ae) / r) (up milling). The
+material is thus taken to stand at the same lateral position at every height (a vertical side:
+the Z-map's cells, a previous pass's wall). Pieces (several intervals with their own depths)
+are summed as for the flat end mill.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from feedopt.process.coefficients import CuttingCoefficients
+from feedopt.process.cutter import Profile, Slices, profile_slices
+
+__all__ = ["general_critical_angles", "general_sums", "slice_intervals"]
+
+_TWO_PI = 2.0 * math.pi
+# Elements (samples x angles x slices) per block of the direct sums.
+_BLOCK = 1 << 16
+# Exit critical angles are placed this far before the exit (as in forces.critical_angles).
+_EXIT_BACKOFF = 1e-9
+
+
+def slice_intervals(radius: float, slices: Slices, entry: np.ndarray, exit_: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample and slice the engaged interval ``[entry_j, exit_j)`` [rad], shape (n, L),
+    of material given at the nominal ``radius`` by ``entry``/``exit_`` (n,) (module
+    docstring); ``entry_j == exit_j`` where the slice does not cut."""
+    entry = np.asarray(entry, dtype=float)[:, None]
+    exit_ = np.asarray(exit_, dtype=float)[:, None]
+    y_hi = np.where(entry <= 0.0, np.inf, radius * np.cos(entry))
+    y_lo = np.where(exit_ >= math.pi, -np.inf, radius * np.cos(exit_))
+    r = slices.radius
+    lo = np.arccos(np.clip(y_hi / r, -1.0, 1.0))
+    hi = np.arccos(np.clip(y_lo / r, -1.0, 1.0))
+    cutting = (entry < exit_) & (lo < hi)
+    return np.where(cutting, lo, 0.0), np.where(cutting, hi, 0.0)
+
+
+def _lags(rate: float, slices: Slices) -> np.ndarray:
+    """Helix lag psi_j = rate z_j [rad] (n, L), rate = 2 tan(beta) / D."""
+    return rate * slices.height
+
+
+def general_sums(profile: Profile, geometry: tuple[float, int, float], coeffs: CuttingCoefficients,
+                 phi: np.ndarray, engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
+                 slices: int) -> np.ndarray:
+    """Forces ``[cut x, y, z, torque, edge x, y, z, torque]`` (c, k, 8) at angles ``phi``
+    (c, k) of tooth 1, for engagements ``(entry, exit, depth)`` (c,) each, summed directly
+    over teeth and slices (module docstring). ``geometry`` = (diameter D [m], teeth N,
+    helix rate 2 tan(beta) / D [rad/m])."""
+    diameter, teeth, rate = geometry
+    entry, exit_, depth = (np.asarray(a, dtype=float) for a in engagement)
+    out = np.zeros(phi.shape + (8,))
+    c, k = phi.shape
+    rows = max(1, _BLOCK // max(1, k * slices * teeth))
+    for start in range(0, c, rows):
+        sl = slice(start, min(start + rows, c))
+        cut = entry[sl] < exit_[sl]
+        if not cut.any():
+            continue
+        sliced = profile_slices(profile, depth[sl], slices)
+        lo, hi = slice_intervals(diameter / 2.0, sliced, entry[sl], exit_[sl])
+        weights = _slice_matrices(sliced, coeffs)  # (r, L, 5, 8)
+        _block(out[sl], phi[sl], (lo, hi), _lags(rate, sliced), (teeth, weights))
+    return out
+
+
+def _slice_matrices(sliced: Slices, k: CuttingCoefficients) -> np.ndarray:
+    """Per slice the (5, 8) map from the in-cut sums ``[1, sin, cos, sin cos, sin^2]`` of
+    theta to ``[cut x, y, z, torque, edge x, y, z, torque]`` (module docstring), times the
+    chip width db: shape (r, L, 5, 8)."""
+    sk, ck, radius = sliced.sin_kappa, sliced.cos_kappa, sliced.radius
+    cut_n = (-k.krc * sk + k.kac * ck) * sk  # in-plane part of Fr and Fa per unit c
+    edge_n = -k.kre * sk + k.kae * ck
+    m = np.zeros(sk.shape + (5, 8))
+    m[..., 3, 0], m[..., 4, 0] = -k.ktc * sk, cut_n
+    m[..., 4, 1], m[..., 3, 1] = k.ktc * sk, cut_n
+    m[..., 1, 2] = (k.krc * ck + k.kac * sk) * sk
+    m[..., 1, 3] = k.ktc * sk * radius
+    m[..., 2, 4], m[..., 1, 4] = -k.kte, edge_n
+    m[..., 1, 5], m[..., 2, 5] = k.kte, edge_n
+    m[..., 0, 6] = k.kre * ck + k.kae * sk
+    m[..., 0, 7] = k.kte * radius
+    return m * sliced.width[:, None, None, None]
+
+
+def _block(out: np.ndarray, phi: np.ndarray, interval: tuple[np.ndarray, np.ndarray],
+           lag: np.ndarray, tool: tuple[int, np.ndarray]) -> None:
+    """Add the slices' forces of one block into ``out`` (r, k, 8): the in-cut sums of every
+    (tooth, slice) at every angle, mapped by the slices' matrices in one batched product."""
+    teeth, weights = tool
+    r, k = phi.shape
+    n_l = lag.shape[1]
+    lead = phi[:, :, None, None] + (np.arange(teeth) * (_TWO_PI / teeth))[None, None, :, None]
+    # (phi + t p) - lag_j: the arithmetic of general_critical_angles, so that a slice at a
+    # critical angle is classified identically
+    theta = np.mod(lead - lag[:, None, None, :], _TWO_PI).reshape(r, k, teeth * n_l)
+    lo, hi = (np.tile(a, (1, teeth))[:, None, :] for a in interval)  # (r, 1, N L)
+    basis = np.empty(theta.shape + (5,))
+    w = basis[..., 0]
+    np.logical_and(theta >= lo, theta < hi, out=w, casting="unsafe")
+    s = np.sin(theta)
+    np.multiply(w, s, out=basis[..., 1])
+    np.multiply(w, np.cos(theta, out=theta), out=basis[..., 2])
+    np.multiply(basis[..., 1], theta, out=basis[..., 3])
+    np.multiply(basis[..., 1], s, out=basis[..., 4])
+    mats = np.tile(weights, (1, teeth, 1, 1)).reshape(r, teeth * n_l * 5, 8)
+    out += np.matmul(basis.reshape(r, k, teeth * n_l * 5), mats)
+
+
+def general_critical_angles(profile: Profile, geometry: tuple[float, int, float],
+                            engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
+                            slices: int) -> np.ndarray:
+    """Rotation angles of tooth 1 (n, 2 L) in one pitch at which a slice enters its interval
+    (columns 0..L-1) or is at ``exit_j - 1e-9`` rad (L..2L-1), as
+    :func:`feedopt.process.forces.critical_angles` for the per-slice intervals of a general
+    cutter; nudged by a few ulps where rounding would put the slice outside its interval
+    under the in-cut test of :func:`general_sums`."""
+    diameter, teeth, rate = geometry
+    entry, exit_, depth = (np.asarray(a, dtype=float) for a in engagement)
+    sliced = profile_slices(profile, depth, slices)
+    lo, hi = slice_intervals(diameter / 2.0, sliced, entry, exit_)
+    lag = _lags(rate, sliced)
+    pitch = _TWO_PI / teeth
+    target = np.concatenate([lo, hi - _EXIT_BACKOFF], axis=1)
+    lag2 = np.concatenate([lag, lag], axis=1)
+    lo2, hi2 = np.concatenate([lo, lo], axis=1), np.concatenate([hi, hi], axis=1)
+    phi = np.mod(target + lag2, pitch)
+    cutting = lo2 < hi2
+    for _ in range(8):
+        phi = np.where(phi >= pitch, phi - pitch, phi)
+        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), teeth)
+        theta = np.mod(phi + tooth * pitch - lag2, _TWO_PI)
+        bad = cutting & ~((theta >= lo2) & (theta < hi2))
+        if not bad.any():
+            break
+        short = np.mod(target - theta + math.pi, _TWO_PI) - math.pi
+        step = np.maximum(short, 0.0) + 4.0 * np.spacing(_TWO_PI + lag2)
+        phi = np.where(bad, phi + step, phi)
+    return phi
+
+
+#: Profile slices of the revolution averages (exact in the angle; the profile's quadrature).
+AVERAGE_SLICES = 200
+
+
+def general_average(profile: Profile, geometry: tuple[float, int, float],
+                    coeffs: CuttingCoefficients,
+                    engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
+                    feed_per_tooth: np.ndarray, slices: int = AVERAGE_SLICES) -> np.ndarray:
+    """Mean force on the tool over one revolution [N] (..., 3) of a general cutter: per
+    slice the exact integral over its interval of the forces of the module docstring,
+    ``N / (2 pi) int dF dtheta`` (the helix lag drops out of a whole revolution; the closed
+    form of :mod:`feedopt.process.averages` per slice), summed over ``slices`` slices.
+    Inputs (entry, exit, depth, feed per tooth) broadcast against each other."""
+    diameter, teeth, _ = geometry
+    entry, exit_, depth, c = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (
+        *engagement, feed_per_tooth)))
+    shape = entry.shape
+    entry, exit_, depth, c = (a.reshape(-1) for a in (entry, exit_, depth, c))
+    exit_ = np.maximum(exit_, entry)
+    sliced = profile_slices(profile, depth, slices)
+    lo, hi = slice_intervals(diameter / 2.0, sliced, entry, exit_)
+
+    def prim(t: np.ndarray) -> tuple[np.ndarray, ...]:  # int of 1, s, c, s c, s^2
+        s = np.sin(t)
+        return t, -np.cos(t), s, 0.5 * s * s, 0.5 * t - 0.25 * np.sin(2.0 * t)
+
+    one, si, co, sc, s2 = (b - a for a, b in zip(prim(lo), prim(hi), strict=True))
+    k, sk, ck = coeffs, sliced.sin_kappa, sliced.cos_kappa
+    cut_n, edge_n = -k.krc * sk + k.kac * ck, -k.kre * sk + k.kae * ck
+    cut = np.stack([sk * (-k.ktc * sc + cut_n * s2), sk * (k.ktc * s2 + cut_n * sc),
+                    sk * (k.krc * ck + k.kac * sk) * si], axis=-1)
+    edge = np.stack([-k.kte * co + edge_n * si, k.kte * si + edge_n * co,
+                     (k.kre * ck + k.kae * sk) * one], axis=-1)
+    total = np.sum(c[:, None, None] * cut + edge, axis=1)
+    scale = teeth * sliced.width / (2.0 * math.pi)
+    return (scale[:, None] * total).reshape(shape + (3,))

@@ -1,0 +1,322 @@
+"""General-cutter forces (ball, bull, tapered, face; Engin & Altintas 2001) against an
+independent brute-force integration of the cutting edge over its height.
+
+The reference below is written from the physics only (nothing of feedopt.process.cutter or
+general_forces): the edge is integrated in height z (not in profile length as the model
+does) with chip width db = dz / sin(kappa(z)); on the corner arc the substitution z = u^2
+removes the 1 / sqrt(z) of db at a ball's tip (db = 2 rc du / sqrt(2 rc - u^2)). The in-cut
+test is the material's lateral extent y_lo <= r(z) cos(theta) <= y_hi on the leading half
+0 <= theta < pi, below the axial depth.
+
+Tolerances: the model sums L slices of equal profile length, each wholly in or out of the
+cut, so a slice crossing an entry/exit boundary errs by up to one slice's force: pointwise
+O(1/L) of the force; the revolution mean (the model's on a fine angle grid against the exact
+one of the reference) is a midpoint rule on a piecewise smooth integrand, O(1/L^2). The
+measured agreement at L = 300 is in the comments of each test; tolerances are ~2-5x it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from feedopt.process.coefficients import CuttingCoefficients
+from feedopt.process.cutter import CutterShape
+from feedopt.process.engagement import Engagement
+from feedopt.process.forces import critical_angles, milling_forces, milling_forces_at
+from feedopt.process.tool import Tool
+
+K = CuttingCoefficients(ktc=800e6, krc=300e6, kac=-100e6, kte=20e3, kre=25e3, kae=-2e3)
+MM = 1e-3
+L = 300  # model slices
+NZ = 10000  # reference height steps per part of the profile (arc, straight edge)
+TWO_PI = 2.0 * math.pi
+
+
+# ----------------------------------------------------------------------------- reference
+def _edge_points(d, rc, taper, depth, n=NZ):
+    """Midpoint-rule nodes in height of the edge below ``depth``: (z, db, r, sin k, cos k)."""
+    k1 = math.pi / 2 - taper
+    r0 = d / 2 - rc
+    z_e, r_e = rc * (1 - math.cos(k1)), r0 + rc * math.sin(k1)
+    parts = []
+    if rc > 0 and z_e > 0:  # corner arc, z = u^2
+        top = math.sqrt(min(depth, z_e))
+        du = top / n
+        u = (np.arange(n) + 0.5) * du
+        z = u * u
+        ck = 1 - z / rc
+        sk = u * np.sqrt(2 * rc - z) / rc
+        parts.append((z, 2 * rc * du / np.sqrt(2 * rc - z), r0 + rc * sk, sk, ck))
+    if depth > z_e:  # straight edge at kappa1: r grows by cot(kappa1) per unit height
+        dz = (depth - z_e) / n
+        z = z_e + (np.arange(n) + 0.5) * dz
+        sk, ck = math.sin(k1), math.cos(k1)
+        parts.append((z, np.full(n, dz / sk), r_e + (z - z_e) * ck / sk,
+                      np.full(n, sk), np.full(n, ck)))
+    return tuple(np.concatenate(a) for a in zip(*parts, strict=True))
+
+
+def _sums(ft, fr, fa, geo, rows=None, count=1):
+    """Force on the tool and torque (count, 4) [x, y, z, T], summed per row (all in one
+    without ``rows``)."""
+    s, c, sk, ck, r = geo
+    terms = (-ft * c - fr * sk * s + fa * ck * s, ft * s - fr * sk * c + fa * ck * c,
+             fr * ck + fa * sk, r * ft)
+    if rows is None:
+        return np.array([[np.sum(t) for t in terms]])
+    return np.stack([np.bincount(rows, t, minlength=count) for t in terms], axis=-1)
+
+
+def reference(shape, k, eng, phis, n=NZ):
+    """(cutting (m, 4), edge (m, 4)) [x, y, z, torque] at tooth-1 angles ``phis``.
+    ``shape`` = (D, teeth, helix, rc, taper), ``eng`` = (entry, exit, depth)."""
+    d, teeth, helix, rc, taper = shape
+    entry, exit_, depth = eng
+    z, db, r, sk, ck = _edge_points(d, rc, taper, depth, n)
+    y_hi = math.inf if entry <= 0 else d / 2 * math.cos(entry)
+    y_lo = -math.inf if exit_ >= math.pi else d / 2 * math.cos(exit_)
+    lag = 2 * math.tan(helix) / d * z
+    phis = np.asarray(phis, dtype=float)
+    cut, edge = np.zeros((phis.size, 4)), np.zeros((phis.size, 4))
+    for tooth in range(teeth):
+        for start in range(0, phis.size, 16):
+            sl = slice(start, start + 16)
+            th = np.mod(phis[sl, None] + tooth * TWO_PI / teeth - lag, TWO_PI)
+            y = r * np.cos(th)
+            rows, cols = np.nonzero((th < math.pi) & (y >= y_lo) & (y <= y_hi))
+            t = th[rows, cols]
+            w, skj, ckj = db[cols], sk[cols], ck[cols]
+            geo = (np.sin(t), np.cos(t), skj, ckj, r[cols])
+            h = w * geo[0] * skj  # chip per unit feed per tooth times db
+            m = th.shape[0]
+            cut[sl] += _sums(k.ktc * h, k.krc * h, k.kac * h, geo, rows, m)
+            edge[sl] += _sums(k.kte * w, k.kre * w, k.kae * w, geo, rows, m)
+    return cut, edge
+
+
+def reference_mean(shape, k, eng, n=2000, n_theta=4096):
+    """Revolution means (cutting (4,), edge (4,)): over a whole turn the helix lag drops out,
+    so the mean is N / (2 pi) times the double integral over theta in [0, pi) (outside it
+    nothing cuts) and height. The theta grid of height node j is shifted by frac(j g), g the
+    golden ratio, so that the errors of the cells cut by an entry/exit do not add up over
+    heights at which it is the same (e.g. all of a cylinder)."""
+    d, teeth, _, rc, taper = shape
+    entry, exit_, depth = eng
+    z, db, r, sk, ck = _edge_points(d, rc, taper, depth, n)
+    y_hi = math.inf if entry <= 0 else d / 2 * math.cos(entry)
+    y_lo = -math.inf if exit_ >= math.pi else d / 2 * math.cos(exit_)
+    dth = math.pi / n_theta
+    shift = np.mod(np.arange(z.size) * (math.sqrt(5) - 1) / 2, 1.0)
+    cut, edge = np.zeros(4), np.zeros(4)
+    for start in range(0, n_theta, 256):
+        th = (np.arange(start, min(start + 256, n_theta))[:, None] + shift) * dth
+        y = r * np.cos(th)
+        rows, cols = np.nonzero((y >= y_lo) & (y <= y_hi))
+        t = th[rows, cols]
+        w, skj = db[cols] * (teeth * dth / TWO_PI), sk[cols]
+        geo = (np.sin(t), np.cos(t), skj, ck[cols], r[cols])
+        h = w * geo[0] * skj
+        cut += _sums(k.ktc * h, k.krc * h, k.kac * h, geo)[0]
+        edge += _sums(k.kte * w, k.kre * w, k.kae * w, geo)[0]
+    return cut, edge
+
+
+# ----------------------------------------------------------------------------- helpers
+def _tool(shape, d, teeth, helix_deg, rc=0.0, taper_deg=0.0, flute=30 * MM):
+    return Tool("t", d, teeth, math.radians(helix_deg), flute, shape=shape, corner_radius=rc,
+                taper=math.radians(taper_deg))
+
+
+def _model(tool, eng, phis, slices=L):
+    e = Engagement(np.array([eng[0]]), np.array([eng[1]]), np.array([eng[2]]))
+    f = milling_forces(tool, K, e, phis, slices)
+    return (np.column_stack([f.cutting[0], f.cutting_torque[0]]),
+            np.column_stack([f.edge[0], f.edge_torque[0]]))
+
+
+def _shape(tool):
+    return tool.diameter, tool.teeth, tool.helix, tool.corner_radius, tool.taper
+
+
+def _errors(got, ref):
+    """(mean error, pointwise error) of (m, 4) [x, y, z, T] rows relative to the force /
+    torque scale: forces by the norm of the mean (resp. largest) reference force vector,
+    torque by its own."""
+    out = []
+    for g, r in ((got.mean(axis=0)[None], ref.mean(axis=0)[None]), (got, ref)):
+        f_scale = np.max(np.linalg.norm(r[:, :3], axis=1))
+        t_scale = np.max(np.abs(r[:, 3]))
+        out.append(max(np.max(np.abs(g[:, :3] - r[:, :3])) / f_scale,
+                       np.max(np.abs(g[:, 3] - r[:, 3])) / t_scale))
+    return out
+
+
+def measure(tool, eng, count=96, fine=4000):
+    """Model vs reference: ((mean error, pointwise error) of the cutting part, (...) of the
+    edge part). Pointwise on ``count`` midpoint angles over one pitch; the model's mean on
+    ``fine`` angles (so that its own steps, one slice wide, average out) against the
+    revolution mean of the reference (:func:`reference_mean`)."""
+    phis = (np.arange(count) + 0.5) * tool.pitch / count
+    dense = (np.arange(fine) + 0.5) * tool.pitch / fine
+    ref = reference(_shape(tool), K, eng, phis)
+    ref_mean = reference_mean(_shape(tool), K, eng)
+    out = []
+    for g, r, gm, rm in zip(_model(tool, eng, phis), ref, _model(tool, eng, dense), ref_mean,
+                            strict=True):
+        assert np.max(np.abs(r)) > 0
+        out.append((_errors(gm.mean(axis=0)[None], rm[None])[0], _errors(g, r)[1]))
+    return out
+
+
+def check(tool, eng, mean_tol, point_tol, cut_point_tol=None):
+    """Assert the errors of :func:`measure`; ``cut_point_tol`` for the cutting part where
+    it is continuous in the angle (zero chip at the entry/exit)."""
+    (cut_mean, cut_point), (edge_mean, edge_point) = measure(tool, eng)
+    assert max(cut_mean, edge_mean) < mean_tol, (cut_mean, edge_mean)
+    assert max(cut_point, edge_point) < point_tol, (cut_point, edge_point)
+    if cut_point_tol is not None:
+        assert cut_point < cut_point_tol, cut_point
+
+
+BALL = _tool(CutterShape.BALL, 10 * MM, 2, 30.0, rc=5 * MM)
+BULL = _tool(CutterShape.BULL, 12 * MM, 4, 35.0, rc=2 * MM)
+SLOT = (0.0, math.pi)
+# Slots: the chip is zero at entry and exit, so the cutting part is continuous in the angle
+# and converges as 1 / L^2 pointwise (measured <= 6e-6); the edge part jumps by one slice's
+# force whenever a slice enters/leaves (pointwise measured <= 2.9e-3); means <= 4e-6.
+SLOT_TOL = (2e-5, 6e-3, 2e-5)
+
+
+# ----------------------------------------------------------------------------- cases
+@pytest.mark.parametrize("depth", [1 * MM, 3 * MM, 7 * MM])
+def test_ball_slot(depth):
+    check(BALL, (*SLOT, depth), *SLOT_TOL)
+
+
+def test_ball_side_cut_engages_only_the_wide_part():
+    ae, r = 2 * MM, 5 * MM
+    eng = (0.0, math.acos((r - ae) / r), 4 * MM)
+    # measured: mean 4.2e-5 (the reference's own error ~6e-5: the cut's width grows as
+    # sqrt(r - (R - ae))), pointwise 5.6e-3 (the chip jumps at the exit arccos((R-ae)/r))
+    check(BALL, eng, 2e-4, 1.2e-2)
+    # nothing of the edge below r(z) = R - ae (z = 1 mm) cuts: depth 1 mm gives zero force
+    low = _model(BALL, (eng[0], eng[1], 0.99 * MM), np.linspace(0, math.pi, 50))
+    assert np.all(low[0] == 0) and np.all(low[1] == 0)
+
+
+@pytest.mark.parametrize("depth", [1 * MM, 5 * MM], ids=["corner-only", "5mm"])
+def test_bull_nose_slot(depth):
+    check(BULL, (*SLOT, depth), *SLOT_TOL)
+
+
+def test_bull_nose_down_milling_step():
+    r, ae = 6 * MM, 1.5 * MM  # material y in (-inf, -(R - ae)]
+    # measured: mean 4.1e-5, pointwise 3.5e-3 (thick chip at each slice's entry)
+    check(BULL, (math.acos(-(r - ae) / r), math.pi, 5 * MM), 2e-4, 1.2e-2)
+
+
+@pytest.mark.parametrize("rc", [0.0, 3 * MM], ids=["flat-tip", "ball-tip"])
+def test_tapered_slot(rc):
+    """The straight edge's radius grows above the tip (r > D/2); the slot's material
+    reaches past any radius."""
+    tool = _tool(CutterShape.TAPERED, 6 * MM, 3, 30.0, rc=rc, taper_deg=5.0)
+    check(tool, (*SLOT, 10 * MM), *SLOT_TOL)
+
+
+def test_face_mill():
+    tool = _tool(CutterShape.FACE, 50 * MM, 8, 0.0, rc=0.8 * MM, taper_deg=45.0, flute=5 * MM)
+    # measured: mean 5.4e-6, pointwise 5.5e-4 (straight inserts: the slices of one insert
+    # enter at radii-dependent angles arccos(y_hi / r), so one slice at a time)
+    check(tool, (0.3, 2.5, 2 * MM), 2e-5, 1.5e-3)
+
+
+# ----------------------------------------------------------------------------- limits
+def test_tiny_corner_bull_nose_is_the_flat_end_mill():
+    """rc = 1e-6 mm: the general sums equal the flat end mill's prefix-sum code."""
+    flat = _tool(CutterShape.FLAT, 12 * MM, 4, 35.0)
+    bull = _tool(CutterShape.BULL, 12 * MM, 4, 35.0, rc=1e-9)
+    phis = np.linspace(0.0, TWO_PI, 181)
+    for eng in [(*SLOT, 5 * MM), (0.4, 2.0, 3 * MM), (0.0, 1.0, 8 * MM)]:
+        for g, f in zip(_model(bull, eng, phis), _model(flat, eng, phis), strict=True):
+            scale = np.max(np.abs(f), axis=0)
+            assert np.all(np.abs(g - f) <= 1e-5 * scale), (eng, np.max(np.abs(g - f) / scale))
+
+
+def _straight_ball(rc, depth, th):
+    """Closed form of a straight-tooth ball-nose (one tooth at theta = ``th`` in the cut):
+    the arc integrals in kappa (db = rc dk) plus the cylinder above rc."""
+    kk = math.acos(1 - min(depth, rc) / rc)
+    cyl = max(depth - rc, 0.0)
+    i_1, i_s = rc * kk + cyl, min(depth, rc) + cyl  # int db, int sin k db
+    i_c, i_sc = rc * math.sin(kk), rc * math.sin(kk) ** 2 / 2
+    i_ss = rc * (kk / 2 - math.sin(2 * kk) / 4) + cyl
+    i_rs, i_r = rc * i_ss, rc * i_s  # r = rc sin k on the arc, rc on the cylinder
+    s, c = math.sin(th), math.cos(th)
+    cut = [s * (-K.ktc * c * i_s - K.krc * s * i_ss + K.kac * s * i_sc),
+           s * (K.ktc * s * i_s - K.krc * c * i_ss + K.kac * c * i_sc),
+           s * (K.krc * i_sc + K.kac * i_ss), s * K.ktc * i_rs]
+    edge = [-K.kte * c * i_1 - K.kre * s * i_s + K.kae * s * i_c,
+            K.kte * s * i_1 - K.kre * c * i_s + K.kae * c * i_c,
+            K.kre * i_c + K.kae * i_s, K.kte * i_r]
+    return np.array(cut), np.array(edge)
+
+
+@pytest.mark.parametrize("depth", [3 * MM, 7 * MM])
+def test_straight_tooth_ball_is_the_closed_form(depth):
+    tool = _tool(CutterShape.BALL, 10 * MM, 2, 0.0, rc=5 * MM)
+    phis = np.linspace(0.05, math.pi - 0.05, 31)  # tooth 1 alone in the slot, away from 0, pi
+    got = _model(tool, (*SLOT, depth), phis)
+    ref = [np.array(a) for a in zip(*(_straight_ball(5 * MM, depth, p) for p in phis),
+                                     strict=True)]
+    brute = reference(_shape(tool), K, (*SLOT, depth), phis)
+    for g, r, b in zip(got, ref, brute, strict=True):
+        # midpoint rule in kappa on a smooth integrand: O((kappa1 / L)^2), measured 1.3e-6
+        assert _errors(g, r)[1] < 1e-5
+        assert _errors(b, r)[1] < 1e-7  # the reference itself (z = u^2), measured 2e-9
+
+
+def test_ball_nose_pushed_up_flat_end_mill_pulled_down():
+    """Kac, Kae < 0: a flat end mill's Fz is negative; on a ball's nose the radial force
+    (normal pointing down-out) pushes the tool up, Fz > 0."""
+    flat = _tool(CutterShape.FLAT, 10 * MM, 2, 30.0)
+    phis = np.linspace(0.0, math.pi, 90, endpoint=False)
+    c = 0.1 * MM
+    ball_cut, ball_edge = _model(BALL, (*SLOT, 3 * MM), phis)
+    flat_cut, flat_edge = _model(flat, (*SLOT, 3 * MM), phis)
+    assert np.all(ball_cut[:, 2] >= 0) and np.mean(ball_edge[:, 2]) > 0
+    assert np.mean(c * ball_cut[:, 2] + ball_edge[:, 2]) > 0
+    assert np.all(flat_cut[:, 2] <= 0) and np.all(flat_edge[:, 2] <= 0)
+    assert np.mean(c * flat_cut[:, 2] + flat_edge[:, 2]) < 0
+
+
+# ----------------------------------------------------------------------------- critical angles
+@pytest.mark.parametrize("tool, eng", [
+    (BALL, (0.0, math.acos(3 / 5), 4 * MM)),  # up milling, ae = 2 mm
+    (BALL, (*SLOT, 3 * MM)),
+    (BULL, (math.acos(-4.5 / 6), math.pi, 5 * MM)),  # down milling, ae = 1.5 mm
+], ids=["ball-up", "ball-slot", "bull-down"])
+def test_critical_angles_are_one_sided_limits(tool, eng):
+    slices = 100
+    e = Engagement(np.array([eng[0]]), np.array([eng[1]]), np.array([eng[2]]))
+    crit = critical_angles(tool, e, slices)
+    assert crit.shape == (1, 2 * slices)
+    assert np.all((crit >= 0) & (crit < tool.pitch))
+    step = np.r_[np.full(slices, 1e-7), np.full(slices, -1e-7)]
+
+    def parts(angles):
+        f = milling_forces_at(tool, K, e, angles, slices)
+        return [np.concatenate([f.cutting[0], f.cutting_torque[0][:, None]], axis=1),
+                np.concatenate([f.edge[0], f.edge_torque[0][:, None]], axis=1)]
+
+    at, inside, outside = parts(crit), parts(crit + step), parts(crit - step)
+    jumps = 0.0
+    for a, b, o in zip(at, inside, outside, strict=True):
+        f_scale = np.max(np.linalg.norm(a[:, :3], axis=1))
+        t_scale = np.max(np.abs(a[:, 3]))
+        scale = np.r_[f_scale, f_scale, f_scale, t_scale]
+        assert np.all(np.abs(a - b) <= 1e-4 * scale), np.max(np.abs(a - b) / scale)
+        jumps = max(jumps, np.max(np.abs(a - o) / scale))
+    assert jumps > 1e-3  # the other side differs by a slice's force: the test can see it
