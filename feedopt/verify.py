@@ -259,7 +259,8 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
         e = model.engagement
         index = (None if np.isfinite(tolerances).any()
                  else part_samples(problem.s, e.exit > e.entry))
-        surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
+        if model.tool.is_flat:  # the wall/floor model is a flat end mill's (its bottom edge)
+            surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():

@@ -146,21 +146,28 @@ def in_program_air(engagement: Engagement, moves, samples, stock_top: float,
 
 
 def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients, moves,
-                       samples, material_name: str) -> tuple[Engagement, np.ndarray, list[str]]:
-    """Without plunge coefficients, the plunging samples lose their plunge (no force model):
-    returns the engagement to use, the (n,) mask of those samples and a warning naming the
-    program lines. With coefficients, the engagement unchanged and an all-False mask."""
+                       samples, material_name: str, tool: Tool | None = None
+                       ) -> tuple[Engagement, np.ndarray, list[str]]:
+    """Without plunge coefficients, or with a cutter that is not a flat end mill (the
+    end-cutting model is a flat end's, :mod:`feedopt.process.plunge`), the plunging samples
+    lose their plunge (no force model): returns the engagement to use, the (n,) mask of those
+    samples and a warning naming the program lines. Otherwise the engagement unchanged and an
+    all-False mask."""
     mask = engagement.plunging
-    if coefficients.plunge is not None or not mask.any():
+    shaped = tool is not None and not tool.is_flat
+    if (coefficients.plunge is not None and not shaped) or not mask.any():
         return engagement, np.zeros(engagement.n, dtype=bool), []
     move = moves.index_at(samples.s[mask]) if moves is not None else np.zeros(0, dtype=int)
     lines = [moves.label(int(m)) for m in dict.fromkeys(move.tolist())]
     shown = (", ".join(lines[:10]) + (f" and {len(lines) - 10} more" if len(lines) > 10 else "")
              or "the path")
+    why = (f"the end-cutting model is a flat end mill's, the tool is a {tool.shape.value} "
+           "cutter" if shaped else f"material file {material_name!r} has no plunge "
+           "coefficients (a plunge: block per speed; feedopt calibrate --plunge-forces fits "
+           "them)")
     warning = (f"the plunges straight down into material at {shown} ({int(mask.sum())} "
-               f"samples) have no force model: material file {material_name!r} has no plunge "
-               "coefficients (a plunge: block per speed; feedopt calibrate --plunge-forces "
-               "fits them); the deflection limit does not bound their feed")
+               f"samples) have no force model: {why}; the deflection limit does not bound "
+               "their feed")
     return engagement.with_plunge(None), mask, [warning]
 
 
@@ -175,6 +182,10 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     """
     cut, feed = scenario.cut, scenario.feed
     tool = load_tool(resolve(scenario.tool, "tool file"))
+    if scenario.deflection.mode == "surface" and not tool.is_flat:
+        raise InputError(f"deflection.mode surface: the wall and floor error model is a flat "
+                         f"end mill's; tool {scenario.tool} is a {tool.shape.value} cutter "
+                         "(use mode norm, normal or direction)")
     table = load_coefficients(resolve(scenario.material, "material file"))
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     material = None
@@ -189,7 +200,7 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
             engagement = in_program_air(engagement, moves, samples,
                                         scenario.path.stock_top_mm * MM, tool, source)
     engagement, unmodelled, plunge_notes = unmodelled_plunges(
-        engagement, coefficients, moves, samples, scenario.material)
+        engagement, coefficients, moves, samples, scenario.material, tool)
     warnings = check_path_radius(samples, segment_names, 0.5 * tool.diameter,
                                  cutting=engagement.exit > engagement.entry,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis),

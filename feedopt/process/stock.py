@@ -78,6 +78,7 @@ from pathlib import Path
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.cutter import Profile
 from feedopt.process.engagement import Engagement, EngagementPieces
 from feedopt.process.stock_mesh import closed_mesh_triangles, mesh_tops, unit_text
 from feedopt.process.stock_sweep import (
@@ -158,7 +159,8 @@ def _cell_that_fits(span_x: float, span_y: float, cell: float) -> float:
 
 @dataclass(frozen=True)
 class FlatEndMill:
-    """A flat end mill for the stock sweep, SI units.
+    """The cutter of the stock sweep, SI units: a flat end mill, or with ``profile`` a
+    ball-nose, bull-nose, tapered or face mill (:mod:`feedopt.process.cutter`).
 
     Attributes
     ----------
@@ -167,10 +169,16 @@ class FlatEndMill:
     flute_length : float
         Length of cut [m]: the reported axial depth is clipped to it (deeper material is
         flagged ``beyond_flutes``).
+    profile : Profile or None
+        The cutting edges' envelope; None (or a cylinder) for a flat end mill. The sweep
+        then removes the cutter's own shape, ``tip + profile.height_at_radius(rho)`` at a
+        cell rho from the swept axis (a ball leaves scallops), and material in front counts
+        only where it stands above that surface at its lateral offset.
     """
 
     radius: float
     flute_length: float
+    profile: Profile | None = None
 
     def __post_init__(self) -> None:
         for name in ("radius", "flute_length"):
@@ -181,7 +189,8 @@ class FlatEndMill:
     @classmethod
     def from_tool(cls, tool: Tool) -> FlatEndMill:
         """The end mill of a process :class:`~feedopt.process.tool.Tool`."""
-        return cls(radius=tool.diameter / 2.0, flute_length=tool.flute_length)
+        return cls(radius=tool.diameter / 2.0, flute_length=tool.flute_length,
+                   profile=None if tool.is_flat else tool.profile)
 
 
 class ZMap:
@@ -551,7 +560,8 @@ def sweep(
         (gx0, gy0), (nx, ny) = stock.origin, stock.shape
         grid = Grid(gx0, gy0, h, nx, ny, stock.x_centres, stock.y_centres)
         bins = LateralBins(radius, h, tool.flute_length, snap, float(depth_step))
-        setup = make_setup(geometry, grid, bins, radius, look, stock.bottom)
+        setup = make_setup(geometry, grid, bins, radius, look, stock.bottom,
+                           profile=tool.profile)
         found = cut_along(work.reshape(-1), setup)
     if work is not stock.heights:
         np.copyto(stock.heights, work)

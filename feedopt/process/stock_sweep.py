@@ -340,7 +340,8 @@ def _window(g: SweepGeometry, b: slice, radius: float, grid: Grid):
     return i0, i1, j0, j1
 
 
-def block_pieces(g: SweepGeometry, b: slice, radius: float, grid: Grid):
+def block_pieces(g: SweepGeometry, b: slice, radius: float, grid: Grid,
+                 recut: bool = False):
     """Candidate cells of the samples of block ``b``: front candidates as (sample, flat start,
     count), two pieces a row; capsule candidates as (sample, flat start, count, core), three a
     row.
@@ -410,7 +411,8 @@ def block_pieces(g: SweepGeometry, b: slice, radius: float, grid: Grid):
     lo = np.where(up, np.maximum(lo, bound), lo)
     hi = np.where(up, hi, np.minimum(hi, bound))
     front = pieces(lo, hi, (px, py, np.where(g.first[b], -1.0, r_in)))
-    inner = (np.where(fast, px, cx), np.where(fast, py, cy), np.full(fast.size, r_in))
+    inner = (np.where(fast, px, cx), np.where(fast, py, cy),
+             np.full(fast.size, -1.0 if recut else r_in))
     core = None if fast.all() else ~fast  # (no core piece when every step is level or rising)
     return [front, pieces(*cells_of_disc(mx, my, r_cap)[1:], inner, core=core)]
 
@@ -549,6 +551,7 @@ class _Setup:
     w_half: np.ndarray  # half the projected cell width across the feed per sample
     descent: np.ndarray  # how far the tip (or the bottom) descends into the sample, >= 0
     bulges: np.ndarray  # the step is swept along its arc (:func:`_bulges`)
+    profile: object = None  # feedopt.process.cutter.Profile of a non-flat cutter, else None
 
 
 def cut_along(flat: np.ndarray, setup: _Setup) -> Found:
@@ -559,7 +562,7 @@ def cut_along(flat: np.ndarray, setup: _Setup) -> Found:
     for b0 in range(0, n, _BLOCK):
         b = slice(b0, min(n, b0 + _BLOCK))
         nb = b.stop - b0
-        pieces = block_pieces(g, b, setup.radius, setup.grid)
+        pieces = block_pieces(g, b, setup.radius, setup.grid, recut=setup.profile is not None)
         per_sample = sum(np.bincount(pc[0], weights=pc[2], minlength=nb) for pc in pieces)
         cum = np.cumsum(per_sample)
         g0 = 0
@@ -572,13 +575,16 @@ def cut_along(flat: np.ndarray, setup: _Setup) -> Found:
 
 
 def make_setup(g: SweepGeometry, grid: Grid, bins: LateralBins, radius: float, look: float,
-               z0: float) -> _Setup:
-    """The shared state of :func:`cut_along`."""
+               z0: float, profile=None) -> _Setup:
+    """The shared state of :func:`cut_along` (``profile``: a non-flat cutter's
+    :class:`~feedopt.process.cutter.Profile`; None or a cylinder: a flat end mill)."""
+    if profile is not None and profile.is_cylinder:
+        profile = None
     floor = np.maximum(g.z, z0)
     w_half = 0.5 * grid.h * (np.abs(g.fx) + np.abs(g.fy))
     descent = np.where(g.first, 0.0, np.maximum(np.maximum(g.pz, z0) - floor, 0.0))
     return _Setup(g, grid, bins, radius, look, z0, floor, floor + MIN_DEPTH, w_half, descent,
-                  _bulges(g))
+                  _bulges(g), profile)
 
 
 def _cells(pieces, k0: int, k1: int, b0: int):
@@ -649,6 +655,8 @@ def _capsule_of(s: _Setup, idx: np.ndarray, ck: np.ndarray, core: np.ndarray):
     g = s.g
     keep = np.ones(ck.size, dtype=bool)
     z_cut = s.floor[ck]
+    if s.profile is not None:
+        return _profile_capsule(s, idx, ck)
     if not (~core).any():
         return keep, z_cut
     curved = s.bulges[ck]
@@ -669,6 +677,28 @@ def _capsule_of(s: _Setup, idx: np.ndarray, ck: np.ndarray, core: np.ndarray):
             (wx * fx + wy * fy, wy * fx - wx * fy), (g.k_back[k], g.ds[k]), g.pz[k], g.z[k],
             s.z0, s.radius)
     return keep, z_cut
+
+
+def _profile_capsule(s: _Setup, idx: np.ndarray, ck: np.ndarray):
+    """:func:`_capsule_of` for a cutter with a profile: a cell within R of the step's chord
+    (previous centre to this one; an arc's chord, its sagitta neglected) is cut to the
+    cutter's surface over it, ``z(t) + height_at_radius(rho)`` with rho its distance from
+    the chord at the closest point t and z(t) the tip height there (the lowest the surface
+    passes over the cell when the tip is level; on a ramp the surface's minimum may lie a
+    little off t: the cut is then shallower by at most the ramp's drop over the contact
+    width), never below z0."""
+    g = s.g
+    x, y = _centres(idx, s.grid)
+    ux, uy = x - g.px[ck], y - g.py[ck]
+    sx, sy = g.cx[ck] - g.px[ck], g.cy[ck] - g.py[ck]
+    len2 = sx * sx + sy * sy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip(np.where(len2 > 0.0, (ux * sx + uy * sy) / len2, 1.0), 0.0, 1.0)
+    rho = np.hypot(ux - t * sx, uy - t * sy)
+    keep = rho <= s.radius
+    z_tip = np.maximum(g.pz[ck] + t * (g.z[ck] - g.pz[ck]), s.z0)
+    lift = s.profile.height_at_radius(np.minimum(rho, s.radius))
+    return keep, np.maximum(z_tip + lift, s.z0)
 
 
 def _gather_scatter(flat, front, capsule):
@@ -700,6 +730,8 @@ def _front_found(s: _Setup, front, k0: int, k1: int, out: Found) -> None:
     if not sel.any():
         return
     material = seen > s.thr[fk]
+    if s.profile is not None:  # above the cutter's surface at the cell's lateral offset
+        material &= seen > s.thr[fk] + s.profile.height_at_radius(np.abs(dy))
     starts = off[:-1][sel]
     hit = np.add.reduceat(material, starts) > 0
     tops = np.maximum.reduceat(seen, starts)
