@@ -17,7 +17,7 @@ from feedopt.robot.start import start_joints
 from feedopt.run_data import Compensated, LawResult, Prepared
 from feedopt.schedule.compensation import check_compensation, compensation_fixed_point
 from feedopt.schedule.laws import plan_law
-from feedopt.schedule.stage import interior_stop_indices, schedule_problem
+from feedopt.schedule.stage import interior_stop_indices, schedule_problem, tip_compliance
 from feedopt.units import MM
 from feedopt.verify import replay_all
 
@@ -64,7 +64,8 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
         def mean_deflection(commanded: np.ndarray, planned):
             schedule, traj = planned
             along = along_at(commanded)
-            model = dataclasses.replace(schedule.model, compliance=along.compliance)
+            model = dataclasses.replace(schedule.model, compliance=tip_compliance(
+                along.compliance, prepared.process.tool, schedule.model.frames))
             return model.mean_deflection(traj.feed_at(samples.s)), (along, model)
 
         path = compensation_fixed_point(nominal, plan, mean_deflection)

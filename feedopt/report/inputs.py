@@ -68,8 +68,24 @@ def _tool(sc: Mapping) -> str | None:
         parts.append(f"{t['teeth']} teeth")
     if t.get("helix_deg") is not None:
         parts.append(f"helix {_g(t['helix_deg'], '.4g')} deg")
+    if t.get("shape") not in (None, "flat"):
+        parts.append(f"{t['shape']}, corner radius {_g(t.get('corner_radius_mm'), '.4g')} mm"
+                     + (f", taper {_g(t['taper_deg'], '.4g')} deg" if t.get("taper_deg") else ""))
+    parts += _bending(t.get("bending"))
     name = str(t.get("name") or "")
     return f"{name}: {', '.join(parts)}" if name and parts else (name or ", ".join(parts))
+
+
+def _bending(b) -> list[str]:
+    """The tool's bending in the tool row: its stiffness and share of the deflection."""
+    if not isinstance(b, Mapping) or b.get("lateral_stiffness_n_per_um") is None:
+        return []
+    out = [f"bends at {_g(b['lateral_stiffness_n_per_um'], '.3g')} N/um ({b.get('model')})"]
+    share = b.get("share_of_mean_deflection")
+    if isinstance(share, Mapping) and share.get("median") is not None:
+        out.append(f"{100 * share['median']:.0f} % of the mean deflection is the tool's "
+                   f"(median; {100 * share['at_largest']:.0f} % where it is largest)")
+    return out
 
 
 def _material(sc: Mapping) -> str | None:

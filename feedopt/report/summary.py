@@ -107,6 +107,7 @@ def scenario_summary(prepared: Prepared) -> dict:
     table is built from this dictionary alone).
     """
     from feedopt.export.frames import frames_summary
+    from feedopt.schedule.tool_share import tool_bending_summary, tool_shape_summary
 
     sc, tool, model, robot = prepared.scenario, prepared.tool, prepared.model, prepared.robot
     c = model.coefficients
@@ -125,7 +126,9 @@ def scenario_summary(prepared: Prepared) -> dict:
                   "tool_source": robot.sources.get("tool")},
         "tool": {"name": tool.name, "diameter_mm": tool.diameter / MM, "teeth": tool.teeth,
                  "helix_deg": float(np.rad2deg(tool.helix)),
-                 "flute_length_mm": tool.flute_length / MM, "file": sc.tool},
+                 "flute_length_mm": tool.flute_length / MM, "file": sc.tool,
+                 **tool_shape_summary(tool),
+                 "bending": tool_bending_summary(tool, model, sc.feed.nominal_mm_s * MM)},
         "material": _material(prepared),
         "cut": {"type": cut.type, "axial_depth_mm": cut.axial_depth_mm,
                 "radial_depth_mm": cut.radial_depth_mm,  # null: slot (full) or profile

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.tool_bending import compliance_matrices
 from feedopt.schedule.bounds import BoundInputs, FeedBound, feed_bound
 from feedopt.schedule.checks import check_boundary_feeds
 from feedopt.schedule.deflection import DeflectionModel
@@ -100,6 +101,17 @@ def stop_samples(stops, s: np.ndarray) -> StopSamples | None:
                        label=tuple(stops.label))
 
 
+def tip_compliance(robot_compliance: np.ndarray, tool, frames: np.ndarray) -> np.ndarray:
+    """The translational compliance at the tool tip [m/N] (n, 3, 3): the robot's (thesis
+    Eq. 3.19/3.20) and the tool's own bending in series (compliances add;
+    :meth:`feedopt.process.tool.Tool.tip_compliance`, about the tool axis ``frames[:, :, 2]``);
+    the robot's alone when the tool is rigid (no stickout, no measured tip stiffness)."""
+    if not tool.bends:
+        return robot_compliance
+    lateral, axial = tool.tip_compliance()
+    return robot_compliance + compliance_matrices(lateral, axial, frames[:, :, 2])
+
+
 def interior_stop_indices(stops, s: np.ndarray) -> np.ndarray | None:
     """Sample indices of the stops strictly inside the path (where the joint path is split
     into pieces, :func:`feedopt.robot.stage.joint_spline`); None without any."""
@@ -130,7 +142,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         engagement=process.engagement,
         angles=angles,
         frames=placement.frames,
-        compliance=along.compliance,
+        compliance=tip_compliance(along.compliance, process.tool, placement.frames),
         rpm=scenario.cut.spindle_rpm,
         mode="norm" if defl.mode == "surface" else defl.mode,
         direction=np.asarray(defl.direction, dtype=float) if defl.direction is not None else None,
