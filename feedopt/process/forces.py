@@ -30,7 +30,11 @@ from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.engagement import Engagement, validate_engagement
 from feedopt.process.force_sums import Flutes, in_cut_sum_blocks, rows_matmul, slice_lags
-from feedopt.process.general_forces import general_critical_angles, general_sums
+from feedopt.process.general_forces import (
+    general_critical_angles,
+    general_sums,
+    slice_engagement,
+)
 from feedopt.process.plunge import plunge_parts
 from feedopt.process.tool import Tool
 
@@ -187,6 +191,8 @@ def milling_forces(
     if engagement.plunge is not None:  # side edges, then the end edges added
         side = milling_forces(tool, coeffs, engagement.side_only(), phi, axial_slices)
         return _with_plunge(side, tool, coeffs, engagement.plunge)
+    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
+        return _general_split(tool, coeffs, engagement, phi, int(axial_slices))
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -222,7 +228,7 @@ def _one_interval_forces(tool: Tool, coeffs: CuttingCoefficients, engagement: En
     depth_of = depth_of.reshape(-1)
     offsets = np.arange(m) * _ROW_GAP
 
-    if depths.size > _MAX_TABLES or not tool.is_flat:  # sum slice by slice
+    if depths.size > _MAX_TABLES:  # many distinct axial depths: sum slice by slice
         step = max(1, _AT_CHUNK // m)
         for start in range(0, uniq.shape[0], step):
             u = np.arange(start, min(start + step, uniq.shape[0]))
@@ -274,11 +280,10 @@ def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) 
     """
     slices = _check_slices(axial_slices)
     validate_engagement(engagement, tool.flute_length)
+    if not tool.is_flat:  # per slice and interval of the profile
+        return general_critical_angles(tool, slice_engagement(tool, engagement, slices))
     if engagement.pieces is not None:
         return _pieced_critical_angles(tool, engagement, slices)
-    if not tool.is_flat:
-        return general_critical_angles(tool.profile, _geometry(tool), (
-            engagement.entry, engagement.exit, engagement.axial_depth), slices)
     if tool.helix == 0.0:
         slices_used = 1  # every slice has lag 0
     else:
@@ -349,6 +354,9 @@ def milling_forces_at(
     if engagement.plunge is not None:  # side edges, then the end edges added
         side = milling_forces_at(tool, coeffs, engagement.side_only(), phi, axial_slices)
         return _with_plunge(side, tool, coeffs, engagement.plunge)
+    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
+        out = general_sums(tool, coeffs, phi, slice_engagement(tool, engagement, slices))
+        return ForceSplit(np.array(phi), out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -381,9 +389,6 @@ def _sums_at(
     :func:`_slice_lags`), so a slice at a boundary (:func:`critical_angles`) is classified
     identically.
     """
-    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
-        return general_sums(tool.profile, _geometry(tool), coeffs, phi,
-                            (entry, exit_, da * slices), slices)
     out = np.empty(phi.shape + (8,))
     blocks = in_cut_sum_blocks(phi, entry, exit_, da, _flutes(tool, slices),
                                max(1, _AT_CHUNK // max(1, phi.shape[1])))
@@ -538,9 +543,21 @@ def _slice_lags(tool: Tool, a: np.ndarray | float, slices: int) -> np.ndarray:
     return slice_lags(_helix_rate(tool), np.asarray(a, dtype=float) / slices, np.arange(slices))
 
 
-def _geometry(tool: Tool) -> tuple[float, int, float]:
-    """(D, N, helix rate) of a general cutter for :mod:`feedopt.process.general_forces`."""
-    return tool.diameter, tool.teeth, _helix_rate(tool)
+def _general_split(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement,
+                   phi: np.ndarray, slices: int) -> ForceSplit:
+    """:func:`milling_forces` of a general cutter (:mod:`feedopt.process.general_forces`):
+    distinct engagements (without pieces) computed once, at the shared angles ``phi``."""
+    n = engagement.n
+    if engagement.pieces is None and n:
+        key = np.stack([engagement.entry, engagement.exit, engagement.axial_depth], axis=1)
+        uniq, inverse = np.unique(key, axis=0, return_inverse=True)
+        rows = Engagement(uniq[:, 0], uniq[:, 1], uniq[:, 2])
+        inverse = inverse.reshape(-1)
+    else:
+        rows, inverse = engagement, np.arange(n)
+    shared = np.broadcast_to(phi, (rows.n, phi.size))
+    out = general_sums(tool, coeffs, shared, slice_engagement(tool, rows, slices))[inverse]
+    return ForceSplit(phi, out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
 
 
 def _helix_rate(tool: Tool) -> float:

@@ -40,13 +40,17 @@ are summed as for the flat end mill.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.cutter import Profile, Slices, profile_slices
+from feedopt.process.engagement import Engagement
+from feedopt.process.tool import Tool
 
-__all__ = ["general_critical_angles", "general_sums", "slice_intervals"]
+__all__ = ["SliceEngagement", "general_average", "general_critical_angles", "general_sums",
+           "slice_engagement", "slice_intervals"]
 
 _TWO_PI = 2.0 * math.pi
 # Elements (samples x angles x slices) per block of the direct sums.
@@ -76,27 +80,103 @@ def _lags(rate: float, slices: Slices) -> np.ndarray:
     return rate * slices.height
 
 
-def general_sums(profile: Profile, geometry: tuple[float, int, float], coeffs: CuttingCoefficients,
-                 phi: np.ndarray, engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
-                 slices: int) -> np.ndarray:
+@dataclass(frozen=True)
+class SliceEngagement:
+    """Per sample the slices of the profile over its axial depth and, per slice, the union
+    of the engaged intervals ``[lo_w, hi_w)`` (w < W, padded with empty ``lo == hi``)."""
+
+    sliced: Slices
+    lo: np.ndarray  # (n, L, W) [rad]
+    hi: np.ndarray  # (n, L, W) [rad]
+
+    def rows(self, sl: slice) -> SliceEngagement:
+        """The samples ``sl``."""
+        s = self.sliced
+        return SliceEngagement(Slices(s.radius[sl], s.height[sl], s.sin_kappa[sl],
+                                      s.cos_kappa[sl], s.width[sl]), self.lo[sl], self.hi[sl])
+
+
+def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEngagement:
+    """The engagement of a general cutter by slice (module docstring): the profile sliced
+    over each sample's (largest) axial depth; a slice at height z takes the pieces deeper than
+    z (a sample without pieces: its one interval), projected to its radius and merged where
+    they touch or overlap."""
+    sliced = profile_slices(tool.profile, engagement.axial_depth, slices)
+    radius = tool.diameter / 2.0
+    if engagement.pieces is None:
+        lo, hi = slice_intervals(radius, sliced, engagement.entry, engagement.exit)
+        return SliceEngagement(sliced, lo[..., None], hi[..., None])
+    entry, exit_, depth = _padded_pieces(engagement)  # (n, W)
+    los, his = [], []
+    for w in range(entry.shape[1]):
+        lo, hi = slice_intervals(radius, sliced, entry[:, w], exit_[:, w])
+        deep = sliced.height < depth[:, w, None]
+        los.append(np.where(deep, lo, 0.0))
+        his.append(np.where(deep, hi, 0.0))
+    return SliceEngagement(sliced, *_merged(np.stack(los, axis=2), np.stack(his, axis=2)))
+
+
+def _padded_pieces(engagement: Engagement) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(entry, exit, depth) per sample and interval (n, W): a plain sample's one interval,
+    a pieced sample's pieces in order; padded with empty intervals of zero depth."""
+    n, pieces = engagement.n, engagement.pieces
+    pieced = engagement.pieced
+    counts = np.where(pieced, 0, 1) + np.bincount(pieces.sample, minlength=n)
+    width = int(counts.max(initial=1))
+    out = [np.zeros((n, width)) for _ in range(3)]
+    plain = np.flatnonzero(~pieced)
+    for arr, value in zip(out, (engagement.entry, engagement.exit, engagement.axial_depth),
+                          strict=True):
+        arr[plain, 0] = value[plain]
+    starts = np.flatnonzero(np.r_[True, pieces.sample[1:] != pieces.sample[:-1]])
+    rank = np.arange(pieces.count) - np.repeat(starts, np.diff(np.r_[starts, pieces.count]))
+    for arr, value in zip(out, (pieces.entry, pieces.exit, pieces.axial_depth), strict=True):
+        arr[pieces.sample, rank] = value
+    return out[0], out[1], out[2]
+
+
+def _merged(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Intervals (..., W) merged where they touch or overlap, in increasing order; empty
+    intervals (lo >= hi) dropped; padded at the end with empty ones (0, 0)."""
+    shape = lo.shape
+    lo, hi = lo.reshape(-1, shape[-1]), hi.reshape(-1, shape[-1])
+    empty = lo >= hi
+    lo = np.where(empty, np.inf, lo)
+    hi = np.where(empty, -np.inf, hi)
+    order = np.argsort(lo, axis=1, kind="stable")
+    lo, hi = np.take_along_axis(lo, order, 1), np.take_along_axis(hi, order, 1)
+    valid = np.isfinite(lo)
+    reach = np.maximum.accumulate(hi, axis=1)
+    new = valid.copy()
+    new[:, 1:] &= lo[:, 1:] > reach[:, :-1]
+    run = np.cumsum(new, axis=1) - 1
+    width = max(1, int(new.sum(axis=1).max(initial=1)))
+    row = np.broadcast_to(np.arange(lo.shape[0])[:, None], lo.shape)
+    out_lo = np.zeros((lo.shape[0], width))
+    out_lo[row[new], run[new]] = lo[new]  # sorted: a run's first interval has its lowest lo
+    out_hi = np.full((lo.shape[0], width), -np.inf)
+    np.maximum.at(out_hi, (row[valid], run[valid]), hi[valid])
+    out_hi = np.where(np.isfinite(out_hi), out_hi, 0.0)
+    return out_lo.reshape(shape[:-1] + (width,)), out_hi.reshape(shape[:-1] + (width,))
+
+
+def general_sums(tool: Tool, coeffs: CuttingCoefficients, phi: np.ndarray,
+                 se: SliceEngagement) -> np.ndarray:
     """Forces ``[cut x, y, z, torque, edge x, y, z, torque]`` (c, k, 8) at angles ``phi``
-    (c, k) of tooth 1, for engagements ``(entry, exit, depth)`` (c,) each, summed directly
-    over teeth and slices (module docstring). ``geometry`` = (diameter D [m], teeth N,
-    helix rate 2 tan(beta) / D [rad/m])."""
-    diameter, teeth, rate = geometry
-    entry, exit_, depth = (np.asarray(a, dtype=float) for a in engagement)
+    (c, k) of tooth 1 for the slice engagement ``se`` of c samples, summed directly over
+    teeth, slices and intervals (module docstring)."""
     out = np.zeros(phi.shape + (8,))
     c, k = phi.shape
-    rows = max(1, _BLOCK // max(1, k * slices * teeth))
+    n_l, width = se.lo.shape[1:]
+    rows = max(1, _BLOCK // max(1, k * n_l * tool.teeth))
     for start in range(0, c, rows):
         sl = slice(start, min(start + rows, c))
-        cut = entry[sl] < exit_[sl]
-        if not cut.any():
+        part = se.rows(sl)
+        if not np.any(part.lo < part.hi):
             continue
-        sliced = profile_slices(profile, depth[sl], slices)
-        lo, hi = slice_intervals(diameter / 2.0, sliced, entry[sl], exit_[sl])
-        weights = _slice_matrices(sliced, coeffs)  # (r, L, 5, 8)
-        _block(out[sl], phi[sl], (lo, hi), _lags(rate, sliced), (teeth, weights))
+        weights = _slice_matrices(part.sliced, coeffs)  # (r, L, 5, 8)
+        _block(out[sl], phi[sl], (part.lo, part.hi), _lags(tool.helix_rate, part.sliced),
+               (tool.teeth, weights))
     return out
 
 
@@ -130,10 +210,14 @@ def _block(out: np.ndarray, phi: np.ndarray, interval: tuple[np.ndarray, np.ndar
     # (phi + t p) - lag_j: the arithmetic of general_critical_angles, so that a slice at a
     # critical angle is classified identically
     theta = np.mod(lead - lag[:, None, None, :], _TWO_PI).reshape(r, k, teeth * n_l)
-    lo, hi = (np.tile(a, (1, teeth))[:, None, :] for a in interval)  # (r, 1, N L)
     basis = np.empty(theta.shape + (5,))
     w = basis[..., 0]
-    np.logical_and(theta >= lo, theta < hi, out=w, casting="unsafe")
+    w.fill(0.0)
+    lo, hi = interval  # (r, L, W)
+    for v in range(lo.shape[2]):
+        lo_v = np.tile(lo[:, :, v], (1, teeth))[:, None, :]  # (r, 1, N L)
+        hi_v = np.tile(hi[:, :, v], (1, teeth))[:, None, :]
+        w += (theta >= lo_v) & (theta < hi_v)  # disjoint intervals: at most one holds
     s = np.sin(theta)
     np.multiply(w, s, out=basis[..., 1])
     np.multiply(w, np.cos(theta, out=theta), out=basis[..., 2])
@@ -143,20 +227,16 @@ def _block(out: np.ndarray, phi: np.ndarray, interval: tuple[np.ndarray, np.ndar
     out += np.matmul(basis.reshape(r, k, teeth * n_l * 5), mats)
 
 
-def general_critical_angles(profile: Profile, geometry: tuple[float, int, float],
-                            engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
-                            slices: int) -> np.ndarray:
-    """Rotation angles of tooth 1 (n, 2 L) in one pitch at which a slice enters its interval
-    (columns 0..L-1) or is at ``exit_j - 1e-9`` rad (L..2L-1), as
+def general_critical_angles(tool: Tool, se: SliceEngagement) -> np.ndarray:
+    """Rotation angles of tooth 1 (n, 2 L W) in one pitch at which a slice enters one of its
+    intervals (the first L W columns) or is at ``hi - 1e-9`` rad (the last L W), as
     :func:`feedopt.process.forces.critical_angles` for the per-slice intervals of a general
     cutter; nudged by a few ulps where rounding would put the slice outside its interval
-    under the in-cut test of :func:`general_sums`."""
-    diameter, teeth, rate = geometry
-    entry, exit_, depth = (np.asarray(a, dtype=float) for a in engagement)
-    sliced = profile_slices(profile, depth, slices)
-    lo, hi = slice_intervals(diameter / 2.0, sliced, entry, exit_)
-    lag = _lags(rate, sliced)
-    pitch = _TWO_PI / teeth
+    under the in-cut test of :func:`general_sums`. Empty intervals give harmless angles."""
+    n = se.lo.shape[0]
+    lag = np.repeat(_lags(tool.helix_rate, se.sliced)[:, :, None], se.lo.shape[2], axis=2)
+    lo, hi, lag = (a.reshape(n, -1) for a in (se.lo, se.hi, lag))
+    pitch = _TWO_PI / tool.teeth
     target = np.concatenate([lo, hi - _EXIT_BACKOFF], axis=1)
     lag2 = np.concatenate([lag, lag], axis=1)
     lo2, hi2 = np.concatenate([lo, lo], axis=1), np.concatenate([hi, hi], axis=1)
@@ -164,7 +244,7 @@ def general_critical_angles(profile: Profile, geometry: tuple[float, int, float]
     cutting = lo2 < hi2
     for _ in range(8):
         phi = np.where(phi >= pitch, phi - pitch, phi)
-        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), teeth)
+        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), tool.teeth)
         theta = np.mod(phi + tooth * pitch - lag2, _TWO_PI)
         bad = cutting & ~((theta >= lo2) & (theta < hi2))
         if not bad.any():
@@ -187,12 +267,26 @@ def general_average(profile: Profile, geometry: tuple[float, int, float],
     slice the exact integral over its interval of the forces of the module docstring,
     ``N / (2 pi) int dF dtheta`` (the helix lag drops out of a whole revolution; the closed
     form of :mod:`feedopt.process.averages` per slice), summed over ``slices`` slices.
-    Inputs (entry, exit, depth, feed per tooth) broadcast against each other."""
+    Inputs (entry, exit, depth, feed per tooth) broadcast against each other; computed in
+    blocks of rows (bounded memory)."""
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (*engagement,
+                                                                          feed_per_tooth)))
+    shape = arrays[0].shape
+    flat = [a.reshape(-1) for a in arrays]
+    out = np.empty((flat[0].size, 3))
+    rows = max(1, _BLOCK // slices)
+    for start in range(0, out.shape[0], rows):
+        sl = slice(start, start + rows)
+        out[sl] = _average_rows(profile, geometry, coeffs, [a[sl] for a in flat], slices)
+    return out.reshape(shape + (3,))
+
+
+def _average_rows(profile: Profile, geometry: tuple[float, int, float],
+                  coeffs: CuttingCoefficients, rows: list[np.ndarray], slices: int
+                  ) -> np.ndarray:
+    """:func:`general_average` of 1-D (entry, exit, depth, feed per tooth) rows, (r, 3)."""
     diameter, teeth, _ = geometry
-    entry, exit_, depth, c = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (
-        *engagement, feed_per_tooth)))
-    shape = entry.shape
-    entry, exit_, depth, c = (a.reshape(-1) for a in (entry, exit_, depth, c))
+    entry, exit_, depth, c = rows
     exit_ = np.maximum(exit_, entry)
     sliced = profile_slices(profile, depth, slices)
     lo, hi = slice_intervals(diameter / 2.0, sliced, entry, exit_)
@@ -209,5 +303,4 @@ def general_average(profile: Profile, geometry: tuple[float, int, float],
     edge = np.stack([-k.kte * co + edge_n * si, k.kte * si + edge_n * co,
                      (k.kre * ck + k.kae * sk) * one], axis=-1)
     total = np.sum(c[:, None, None] * cut + edge, axis=1)
-    scale = teeth * sliced.width / (2.0 * math.pi)
-    return (scale[:, None] * total).reshape(shape + (3,))
+    return (teeth * sliced.width / (2.0 * math.pi))[:, None] * total

@@ -320,3 +320,42 @@ def test_critical_angles_are_one_sided_limits(tool, eng):
         assert np.all(np.abs(a - b) <= 1e-4 * scale), np.max(np.abs(a - b) / scale)
         jumps = max(jumps, np.max(np.abs(a - o) / scale))
     assert jumps > 1e-3  # the other side differs by a slice's force: the test can see it
+
+
+# --- pieces: several engaged intervals of their own depths (the stock's) -----------------
+
+def _pieced(entries, exits, depths):
+    """One sample engaged on the given pieces (hull and largest depth as its summary)."""
+    from feedopt.process.engagement import EngagementPieces
+    p = EngagementPieces(np.zeros(len(entries), dtype=int), entries, exits, depths)
+    return Engagement(np.array([min(entries)]), np.array([max(exits)]),
+                      np.array([max(depths)]), pieces=p)
+
+
+def test_touching_pieces_of_one_depth_are_one_interval():
+    tool = Tool("ball", 10e-3, 2, np.radians(30), 20e-3, shape=CutterShape.BALL,
+                corner_radius=5e-3)
+    angles = np.linspace(0.0, np.pi, 97, endpoint=False)
+    one = milling_forces(tool, K, Engagement(np.array([0.2]), np.array([2.5]),
+                                                  np.array([3e-3])), angles, 40)
+    split = milling_forces(tool, K, _pieced([0.2, 1.1], [1.1, 2.5], [3e-3, 3e-3]),
+                           angles, 40)
+    np.testing.assert_allclose(split.cutting, one.cutting, rtol=0, atol=1e-9 * np.abs(
+        one.cutting).max())
+    np.testing.assert_allclose(split.edge, one.edge, rtol=0, atol=1e-9 * np.abs(one.edge).max())
+
+
+def test_pieces_of_different_depths_sum_to_their_separate_forces():
+    """Each piece alone (sliced over its own depth) against the pieces together (sliced over
+    the largest depth, a slice taking the pieces deeper than it): the same integral, so they
+    agree to the slicing's resolution (revolution means, fine slices)."""
+    tool = Tool("bull", 12e-3, 4, np.radians(35), 20e-3, shape=CutterShape.BULL,
+                corner_radius=2e-3)
+    angles = np.linspace(0.0, np.pi / 2, 2000, endpoint=False)
+    pieces = ([0.0, 0.9, 2.0], [0.9, 2.0, np.pi], [4e-3, 1.5e-3, 3e-3])
+    together = milling_forces(tool, K, _pieced(*pieces), angles, 600).forces(1e-4)
+    alone = sum(milling_forces(tool, K, Engagement(np.array([e]), np.array([x]),
+                                                        np.array([a])), angles, 600
+                               ).forces(1e-4) for e, x, a in zip(*pieces, strict=True))
+    scale = np.abs(alone.mean(axis=1)).max()
+    np.testing.assert_allclose(together.mean(axis=1), alone.mean(axis=1), atol=2e-3 * scale)
