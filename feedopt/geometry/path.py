@@ -136,6 +136,9 @@ class Path:
         #: per programmed junction, what it got and its deviation from the program (a
         #: :class:`~feedopt.geometry.program_path.JunctionReport`), for program paths
         self.junctions = None
+        #: the program's tool comments (:class:`~feedopt.gcode.moves.ToolHeader`), checked
+        #: against the scenario's tool file by the process stage; () for other paths
+        self.tool_headers: tuple = ()
         #: where the tool stops (a :class:`~feedopt.geometry.stops.StopTable`, or anything
         #: with an increasing array ``s`` [m]); :meth:`sample` samples every stop exactly
         self.stops = None

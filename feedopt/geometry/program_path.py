@@ -150,6 +150,7 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
     stops = stop_table(points, moves.s_start, built.path.length)
     path = Path(built.path.segments, moves=moves)
     path.stops = stops
+    path.tool_headers = tuple(program.tool_headers)
     chains = tuple(p.chain for p in pieces if p.chain is not None)
     return ProgramPath(path, moves, report, chains,
                        tuple(_notes(link_notes, corner_notes, chains, opts, g64_p, stops,

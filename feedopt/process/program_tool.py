@@ -89,7 +89,7 @@ def check_program_tool(path, tool, source: str, tool_file: str) -> list[str]:
     """:func:`check_tool_header` of a program path (its ``tool_headers`` and the tool its
     cutting moves use); nothing for other paths."""
     moves = path.moves
-    headers = getattr(path, "tool_headers", ())
+    headers = path.tool_headers
     if moves is None or not headers:
         return []
     cutting = moves.tool[(moves.category == "cut") & (moves.tool >= 0)]
