@@ -203,11 +203,13 @@ def load_template(template: Path, tool: Path | None = None) -> dict:
 
 
 def program_tool(program: Path, template_tool: str, folder: Path) -> str | None:
-    """A tool file for the flat end mill the program's tool comment names, written to
-    ``folder``; None when the program cannot be read or names no flat end mill with a diameter.
+    """A tool file for the cutter the program's tool comment names (a flat, ball or bull
+    end mill with a diameter), written to ``folder``; None when the program cannot be read or
+    names none of those with a diameter.
 
-    The comment gives the diameter only: the teeth (2), helix (30 deg) and lengths are
-    assumptions written into the file's ``source``; the rest is the template's tool.
+    The comment gives the diameter, shape and corner radius only: the teeth (2), helix
+    (30 deg) and lengths are assumptions written into the file's ``source``; the rest is the
+    template's tool.
     """
     from feedopt.errors import InputError
     from feedopt.gcode import read_gcode
@@ -221,19 +223,37 @@ def program_tool(program: Path, template_tool: str, folder: Path) -> str | None:
     cutting = [m.tool for m in prog.moves if m.kind.value != "rapid" and m.tool is not None]
     header = header_for(prog.tool_headers, cutting[0] if cutting else None)
     if (header is None or header.diameter_mm is None or header.shape not in
-            (ToolShape.FLAT, ToolShape.OTHER) or (header.corner_radius_mm or 0.0) > 0.0):
+            (ToolShape.FLAT, ToolShape.OTHER, ToolShape.BALL, ToolShape.BULL)):
         return None
     base = yaml.safe_load(Path(template_tool).read_text(encoding="utf-8"))
     d = header.diameter_mm
+    shape = _shape_fields(header, d)
+    if shape is None:
+        return None
+    base.update(shape)
     flute = max(3.0 * d, abs(header.z_min_mm or 0.0) + d)
     base.update(source=f"assumed by benchmarks/real_programs.py from {program.name} line "
                 f"{header.line} (diameter); teeth, helix and lengths assumed",
-                name=f"flat end mill {d:g} mm (from the program's comment)",
+                name=f"{shape.get('shape', 'flat')} end mill {d:g} mm (from the program's "
+                "comment)",
                 diameter_mm=d, teeth=2, helix_deg=30.0, flute_length_mm=flute,
                 overall_length_mm=flute + 4.0 * d, shank_diameter_mm=d)
     out = folder / "tool.yaml"
     out.write_text(yaml.safe_dump(base, sort_keys=False), encoding="utf-8")
     return str(out)
+
+
+def _shape_fields(header, d: float) -> dict | None:
+    """The tool file's shape fields for a comment's cutter; None for one feedopt can't make
+    from a comment (a corner radius of D/2 or more on a bull nose)."""
+    from feedopt.gcode.moves import ToolShape
+
+    rc = header.corner_radius_mm or 0.0
+    if header.shape is ToolShape.BALL:
+        return {"shape": "ball"}
+    if header.shape is ToolShape.BULL or rc > 0.0:
+        return {"shape": "bull", "corner_radius_mm": rc} if 0.0 < rc < d / 2 else None
+    return {}
 
 
 def scenario_for(template: dict, program: Path, program_stock: bool) -> dict:
