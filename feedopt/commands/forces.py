@@ -38,7 +38,8 @@ def add_parser(subparsers) -> None:
         description=(
             "Static mechanistic milling force model (thesis Algorithm 1, with axial force). "
             "Forces on the tool in the force-model frame: x feed, y normal, z tool axis. "
-            "f_n is the resultant in the x-y plane, as in Algorithm 1; torque is D/2 Ft, "
+            "f_n is the resultant in the x-y plane, as in Algorithm 1; torque is D/2 Ft "
+            "(r Ft along the edge of a ball, bull, tapered or face mill: docs/tools.md), "
             "power is torque times spindle angular speed."
         ),
     )
@@ -227,6 +228,8 @@ def _print_result(args, tool, cut: _Cut, c: float, eng, series: tuple) -> None:
     print(
         f"tool {tool.name}: D {tool.diameter * MM_PER_M:g} mm, {tool.teeth} teeth, helix "
         f"{math.degrees(tool.helix):g} deg"
+        + ("" if tool.is_flat else f", {tool.shape.value}, corner radius "
+           f"{tool.corner_radius * MM_PER_M:g} mm, taper {math.degrees(tool.taper):g} deg")
     )
     print(
         f"{cut.rpm:g} rpm, feed {cut.feed * MM_PER_M:g} mm/s -> c = {c * MM_PER_M:.5f} mm/tooth;"

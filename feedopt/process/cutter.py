@@ -79,8 +79,9 @@ class Profile:
         z = np.asarray(z, dtype=float)
         r_e, z_e = self.arc_top
         on_arc = z < z_e
-        with np.errstate(invalid="ignore", divide="ignore"):
-            arc = self.corner * np.arccos(np.clip(1.0 - z / max(self.corner, 1e-300), -1, 1))
+        with np.errstate(invalid="ignore", divide="ignore"):  # 1 - cos k = 2 sin^2(k / 2)
+            arc = 2.0 * self.corner * np.arcsin(np.sqrt(np.clip(
+                z / (2.0 * max(self.corner, 1e-300)), 0.0, 1.0)))
         line = self.arc_length + (z - z_e) / math.sin(self.kappa1)
         return np.where(on_arc, arc, line)
 
@@ -96,7 +97,8 @@ class Profile:
             sk = np.where(on_arc, sk, 1.0)
             ck = np.where(on_arc, ck, 0.0)
         r = np.where(on_arc, self.r0 + self.corner * sk, r_e + t * math.cos(self.kappa1))
-        z = np.where(on_arc, self.corner * (1.0 - ck), z_e + t * math.sin(self.kappa1))
+        z = np.where(on_arc, 2.0 * self.corner * np.sin(0.5 * kappa) ** 2,  # rc (1 - cos k)
+                     z_e + t * math.sin(self.kappa1))
         if self.kappa1 == math.pi / 2:
             r = np.where(on_arc, r, r_e)
             z = np.where(on_arc, z, z_e + t)
@@ -104,9 +106,9 @@ class Profile:
 
     def height_at_radius(self, rho: np.ndarray) -> np.ndarray:
         """Height [m] of the cutter's lower surface above its tip at distance ``rho`` [m]
-        from the axis (0 on the flat bottom; ``inf`` beyond the largest radius reached below
-        ``max_height``: the stock sweep's removal surface). Defined for every profile with
-        kappa1 > 0."""
+        from the axis: 0 on the flat bottom, the corner arc, then the straight edge extended
+        without limit (a cylinder's is ``inf`` beyond its radius): the stock sweep's removal
+        surface."""
         rho = np.asarray(rho, dtype=float)
         r_e, z_e = self.arc_top
         with np.errstate(invalid="ignore"):
