@@ -74,3 +74,15 @@ def test_a_flat_tool_file_for_the_ball_program_is_refused(tmp_path):
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
     with pytest.raises(InputError, match=r"line 2: tool comment .*ball end mill.*flat cutter"):
         run_scenario(tmp_path / "s.yaml", tmp_path / "out", progress=quiet, report=False)
+
+
+def test_surface_mode_with_a_ball_is_refused_naming_the_tool(tmp_path):
+    for name in ("gcode", "tools", "materials"):
+        shutil.copytree(ROOT / "scenarios" / name, tmp_path / name)
+    doc = yaml.safe_load(SCENARIO.read_text())
+    doc["deflection"] = {"limit_mm": 1.0, "mode": "surface", "wall_limit_mm": 0.05}
+    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(InputError, match="flat end mill's; tool tools/carbide_ball_2mm.yaml is "
+                                         "a ball cutter"):
+        run_scenario(tmp_path / "s.yaml", tmp_path / "out", progress=quiet, report=False)
