@@ -185,18 +185,18 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
     return MaterialAlongPath(before=before, after=after, found=found, warnings=warnings)
 
 
-def _wider_above_tip(tool: Tool) -> list[str]:
+def _wider_above_tip(tool: Tool) -> tuple[str, ...]:
     """A note when the cutter is wider above its tip than D/2 (a tapered or face mill's
     straight edge): the stock sweep sees and removes material within D/2 of the axis only."""
     profile = tool.profile
     if profile.kappa1 >= math.pi / 2:
-        return []
+        return ()
     r_top = float(profile.at_length(profile.length_to_height(tool.flute_length))[0])
-    return [f"the {tool.shape.value} cutter is {2 * r_top / MM:.4g} mm across at the top of its "
+    return (f"the {tool.shape.value} cutter is {2 * r_top / MM:.4g} mm across at the top of its "
             f"flutes, wider than its {tool.diameter / MM:g} mm tip diameter: the stock sweep "
             "removes material within the tip diameter only (what the wider edge above cuts is "
             "left standing, and later samples meet it again), and finds material beyond the "
-            "tip's rim only where it reaches that rim"]
+            "tip's rim only where it reaches that rim",)
 
 
 def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:

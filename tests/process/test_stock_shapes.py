@@ -127,3 +127,14 @@ def test_two_ball_passes_leave_the_scallop_of_their_step_over(step_mm):
     assert float(col[j0]) + 1.0 * MM == pytest.approx(
         radius - math.sqrt(radius**2 - (stock.origin[1] + (j0 + 0.5) * stock.cell) ** 2),
         abs=2e-7)
+
+
+def test_a_cutter_wider_above_its_tip_is_noted_with_its_width():
+    from feedopt.process.material import _wider_above_tip
+
+    tapered = Tool("taper", 6 * MM, 2, 0.5, 10 * MM, shape=CutterShape.TAPERED,
+                   taper=math.radians(5))
+    (note,) = _wider_above_tip(tapered)
+    # 6 mm tip + 2 * 10 mm * tan 5 deg at the top of the flutes
+    assert f"{6 + 20 * math.tan(math.radians(5)):.4g} mm across" in note
+    assert _wider_above_tip(_ball()) == ()
