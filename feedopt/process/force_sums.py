@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Flutes", "in_cut_sum_blocks", "in_cut_sums", "rows_matmul", "slice_lags"]
+__all__ = ["Flutes", "in_cut_sum_blocks", "in_cut_sums", "rows_matmul", "settle_critical",
+           "slice_lags"]
 
 _TWO_PI = 2.0 * math.pi
 _INV_TWO_PI = 1.0 / _TWO_PI
@@ -63,6 +64,31 @@ def slice_lags(rate: float, height: np.ndarray | float, j: np.ndarray | float) -
     these exact operations.
     """
     return rate * ((j + 0.5) * height)
+
+
+def settle_critical(target: np.ndarray, lag: np.ndarray, interval: tuple[np.ndarray, np.ndarray],
+                    pitch: float, teeth: int) -> np.ndarray:
+    """Rotation angles of tooth 1 in one pitch at which a slice of lag ``lag`` is at
+    ``target`` (an entry, or an exit less a backoff), all arrays of one shape, such that the
+    in-cut test ``lo <= mod(phi + t pitch - lag, 2 pi) < hi`` of the force sums holds there
+    (``interval`` = (lo, hi); lo >= hi: not cutting, left as is): the exact arithmetic of the
+    sums for the tooth that reaches the target, nudged forward by a few ulps where rounding
+    would put the slice just outside."""
+    lo, hi = interval
+    phi = np.mod(target + lag, pitch)
+    cutting = lo < hi
+    for _ in range(8):
+        phi = np.where(phi >= pitch, phi - pitch, phi)
+        tooth = np.mod(np.rint((target + lag - phi) / pitch), teeth)
+        theta = np.mod(phi + tooth * pitch - lag, _TWO_PI)
+        bad = cutting & ~((theta >= lo) & (theta < hi))
+        if not bad.any():
+            break
+        # signed shortfall to the target, wrapped to (-pi, pi], plus a few ulps
+        short = np.mod(target - theta + math.pi, _TWO_PI) - math.pi
+        step = np.maximum(short, 0.0) + 4.0 * np.spacing(_TWO_PI + lag)
+        phi = np.where(bad, phi + step, phi)
+    return phi
 
 
 def in_cut_sums(phi: np.ndarray, entry: np.ndarray, exit_: np.ndarray, height: np.ndarray,

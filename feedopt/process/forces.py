@@ -29,7 +29,13 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.engagement import Engagement, validate_engagement
-from feedopt.process.force_sums import Flutes, in_cut_sum_blocks, rows_matmul, slice_lags
+from feedopt.process.force_sums import (
+    Flutes,
+    in_cut_sum_blocks,
+    rows_matmul,
+    settle_critical,
+    slice_lags,
+)
 from feedopt.process.general_forces import (
     general_critical_angles,
     general_sums,
@@ -293,27 +299,11 @@ def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) 
     lag = np.broadcast_to(_slice_lags(tool, a, slices)[:, :slices_used], (n, slices_used))
     entry = np.broadcast_to(engagement.entry[:, None], lag.shape)
     exit_ = np.broadcast_to(engagement.exit[:, None], lag.shape)
-    pitch = tool.pitch
     target = np.concatenate([entry, exit_ - _EXIT_BACKOFF], axis=1)
     lag2 = np.concatenate([lag, lag], axis=1)
-    phi = np.mod(target + lag2, pitch)
-    # Make the in-cut test of milling_forces / milling_forces_at hold at the returned angle:
-    # recompute theta with their exact arithmetic for the tooth that reaches the target.
-    lo = np.concatenate([entry, entry], axis=1)
-    hi = np.concatenate([exit_, exit_], axis=1)
-    cutting = lo < hi
-    for _ in range(8):
-        phi = np.where(phi >= pitch, phi - pitch, phi)
-        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), tool.teeth)
-        theta = np.mod(phi + tooth * pitch - lag2, _TWO_PI)
-        bad = cutting & ~((theta >= lo) & (theta < hi))
-        if not bad.any():
-            break
-        # signed shortfall to the target, wrapped to (-pi, pi], plus a few ulps
-        short = np.mod(target - theta + math.pi, _TWO_PI) - math.pi
-        step = np.maximum(short, 0.0) + 4.0 * np.spacing(_TWO_PI + lag2)
-        phi = np.where(bad, phi + step, phi)
-    return phi
+    # Make the in-cut test of milling_forces / milling_forces_at hold at the returned angle.
+    interval = (np.concatenate([entry, entry], axis=1), np.concatenate([exit_, exit_], axis=1))
+    return settle_critical(target, lag2, interval, tool.pitch, tool.teeth)
 
 
 def milling_forces_at(

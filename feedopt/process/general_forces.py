@@ -47,6 +47,7 @@ import numpy as np
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.cutter import Profile, Slices, profile_slices
 from feedopt.process.engagement import Engagement
+from feedopt.process.force_sums import settle_critical
 from feedopt.process.tool import Tool
 
 __all__ = ["SliceEngagement", "general_average", "general_critical_angles", "general_sums",
@@ -236,23 +237,10 @@ def general_critical_angles(tool: Tool, se: SliceEngagement) -> np.ndarray:
     n = se.lo.shape[0]
     lag = np.repeat(_lags(tool.helix_rate, se.sliced)[:, :, None], se.lo.shape[2], axis=2)
     lo, hi, lag = (a.reshape(n, -1) for a in (se.lo, se.hi, lag))
-    pitch = _TWO_PI / tool.teeth
     target = np.concatenate([lo, hi - _EXIT_BACKOFF], axis=1)
-    lag2 = np.concatenate([lag, lag], axis=1)
-    lo2, hi2 = np.concatenate([lo, lo], axis=1), np.concatenate([hi, hi], axis=1)
-    phi = np.mod(target + lag2, pitch)
-    cutting = lo2 < hi2
-    for _ in range(8):
-        phi = np.where(phi >= pitch, phi - pitch, phi)
-        tooth = np.mod(np.rint((target + lag2 - phi) / pitch), tool.teeth)
-        theta = np.mod(phi + tooth * pitch - lag2, _TWO_PI)
-        bad = cutting & ~((theta >= lo2) & (theta < hi2))
-        if not bad.any():
-            break
-        short = np.mod(target - theta + math.pi, _TWO_PI) - math.pi
-        step = np.maximum(short, 0.0) + 4.0 * np.spacing(_TWO_PI + lag2)
-        phi = np.where(bad, phi + step, phi)
-    return phi
+    interval = (np.concatenate([lo, lo], axis=1), np.concatenate([hi, hi], axis=1))
+    return settle_critical(target, np.concatenate([lag, lag], axis=1), interval,
+                           tool.pitch, tool.teeth)
 
 
 #: Profile slices of the revolution averages (exact in the angle; the profile's quadrature).
