@@ -15,7 +15,7 @@ from feedopt.outfile import Writer, check_data_and_plot, write_files_atomically
 from feedopt.process.coefficients import feed_per_tooth_warning, load_coefficients
 from feedopt.process.engagement import MILLING_MODES, peripheral_engagement
 from feedopt.process.forces import feed_per_tooth, milling_forces
-from feedopt.process.tool import load_tool
+from feedopt.process.tool import load_tool, wider_above_tip
 from feedopt.units import MM, MM_PER_M
 
 HEADER = "angle_deg,fx_n,fy_n,fz_n,f_n,torque_nm,power_w"
@@ -208,6 +208,9 @@ def run(args: argparse.Namespace) -> int:
     cut = _cut(args, tool)
     c = feed_per_tooth(cut.feed, cut.rpm, tool.teeth)
     coeffs = _coefficients(args, table, cut, tool, c)
+    note = wider_above_tip(tool)
+    if note is not None:
+        _warn(note)
     eng = peripheral_engagement(np.array([cut.radial_depth]), tool.diameter, cut.axial_depth,
                                 args.milling)
     angles = np.arange(cut.count) * (2 * math.pi / cut.count)

@@ -137,8 +137,8 @@ def _mastercam_line(text: str, line: int, mm_per_unit: float) -> ToolHeader | No
 
 def _generic(text: str, number: int | None, rest: str, line: int,
              mm_per_unit: float) -> ToolHeader | None:
-    """``T1 D0.125 ;1/8 end mill`` or ``T3 6mm ball end mill``: kept when it gives a
-    diameter or names a shape."""
+    """``T1 D0.125 ;1/8 end mill``, ``T3 6mm ball end mill`` or ``T1 D2 CR=0.3 ;bull nose``:
+    kept when it gives a diameter or names a shape."""
     m = _D_WORD.search(" " + rest)
     dia = _length(m.group(1), mm_per_unit) if m else None
     if dia is None:
@@ -146,8 +146,10 @@ def _generic(text: str, number: int | None, rest: str, line: int,
     shape = shape_named(rest)
     if dia is None and shape is ToolShape.OTHER:
         return None
-    return ToolHeader(number=number, diameter_mm=dia, corner_radius_mm=None, shape=shape,
-                      z_min_mm=None, line=line, text=text)
+    cr = _FIELD["CR"].search(rest)  # a corner radius written Fusion-style: CR=0.3
+    return ToolHeader(number=number, diameter_mm=dia,
+                      corner_radius_mm=_length(cr.group(1), mm_per_unit, signed=True)
+                      if cr else None, shape=shape, z_min_mm=None, line=line, text=text)
 
 
 def tool_header(comment: str, line: int, mm_per_unit: float) -> ToolHeader | None:

@@ -21,7 +21,6 @@ for, and exit 0 with a warning among others is easily missed, hence the error by
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,7 +30,7 @@ import numpy as np
 from feedopt.errors import InputError
 from feedopt.process.plunge import check_plunge_depth
 from feedopt.process.stock import FlatEndMill, StockEngagement, ZMap, sweep
-from feedopt.process.tool import Tool
+from feedopt.process.tool import Tool, wider_above_tip
 from feedopt.units import MM
 
 # Material thinner than this in a swept volume is no contact (as the sweep's material
@@ -181,22 +180,12 @@ def engagement_from_stock(section, resolve: Callable[[str, str], Path], tool: To
         found = dataclasses.replace(found, engagement=found.engagement.with_plunge(plunge))
     warnings = _units_note(section, before)
     warnings += _nothing_cut(section, before, found, samples.position, 0.5 * tool.diameter)
-    warnings += _wider_above_tip(tool)
+    note = wider_above_tip(tool)
+    warnings += () if note is None else (note + " (the stock sweep removes material within "
+                                         "the tip diameter only: what the wider edge above "
+                                         "cuts is left standing, and later samples meet it "
+                                         "again)",)
     return MaterialAlongPath(before=before, after=after, found=found, warnings=warnings)
-
-
-def _wider_above_tip(tool: Tool) -> tuple[str, ...]:
-    """A note when the cutter is wider above its tip than D/2 (a tapered or face mill's
-    straight edge): the stock sweep sees and removes material within D/2 of the axis only."""
-    profile = tool.profile
-    if profile.kappa1 >= math.pi / 2:
-        return ()
-    r_top = float(profile.at_length(profile.length_to_height(tool.flute_length))[0])
-    return (f"the {tool.shape.value} cutter is {2 * r_top / MM:.4g} mm across at the top of its "
-            f"flutes, wider than its {tool.diameter / MM:g} mm tip diameter: the stock sweep "
-            "removes material within the tip diameter only (what the wider edge above cuts is "
-            "left standing, and later samples meet it again), and finds material beyond the "
-            "tip's rim only where it reaches that rim",)
 
 
 def _without(found: StockEngagement, drop: np.ndarray) -> StockEngagement:

@@ -73,6 +73,8 @@ def _check_shape(header: ToolHeader, tool, where: str, tool_file: str) -> None:
         raise InputError(f"{where}: the program was made for a drill; feedopt models milling "
                          "cutters (flat, ball, bull, tapered, face mills)")
     allowed = _SHAPES.get(shape)
+    if shape is ToolShape.BALL and tool.corner_radius == tool.diameter / 2:
+        allowed = (CutterShape.BALL, CutterShape.TAPERED)  # a tapered ball-nose is a ball
     if allowed is not None and tool.shape not in allowed:
         raise InputError(
             f"{where}: the program was made for a {shape.value}, the tool file {tool_file} "

@@ -112,10 +112,31 @@ class Tool:
                         youngs_modulus_pa=self.youngs_modulus)
 
 
+def wider_above_tip(tool: Tool) -> str | None:
+    """A note when the cutter is wider above its tip than D/2 (a tapered or face mill's
+    straight edge), None otherwise: engagements are given at D/2, and material met there is
+    taken to stand vertically, so a wall beside the cutter (a radial depth below a slot's) is
+    cut by the wider edge above it, and the stock sweep covers the tip diameter only."""
+    profile = tool.profile
+    if profile.kappa1 >= math.pi / 2:
+        return None
+    r_top = float(profile.at_length(profile.length_to_height(tool.flute_length))[0])
+    return (f"the {tool.shape.value} cutter is {2 * r_top / MM:.4g} mm across at the top of "
+            f"its flutes, wider than its {tool.diameter / MM:g} mm tip: engagements are at the "
+            "tip diameter, and the material beside it is taken to stand vertically there "
+            "(docs/tools.md)")
+
+
 #: Most cutting edges a tool may have (a large face mill has a few dozen inserts).
 MAX_TEETH = 100
-#: Largest taper half angle [deg] (a 160 deg V-bit).
+#: Largest taper half angle [deg] (a 160 deg V-bit); a face mill's smallest lead angle is
+#: 90 deg minus it (a flatter edge would make the cutter wider than any tool at its flutes).
 MAX_TAPER_DEG = 80.0
+#: Plausible ranges of the bending fields of a tool file (key: (low, high, unit)): outside
+#: them a value is a typo or a unit slip (a stickout in um, a stiffness in N/m), refused.
+BENDING_RANGES = {"stickout_mm": (0.1, 1000.0, "mm"), "shank_diameter_mm": (0.05, 200.0, "mm"),
+                  "youngs_modulus_gpa": (10.0, 1200.0, "GPa"),
+                  "tip_stiffness_n_per_um": (1e-3, 1e4, "N/um")}
 
 
 def validate_tool(tool: Tool, where: str = "tool") -> None:
@@ -150,24 +171,25 @@ def _validate_shape(tool: Tool, where: str) -> None:
     shape, rc, r = tool.shape, tool.corner_radius, tool.diameter / 2.0
     taper = math.degrees(tool.taper)
     if not (math.isfinite(rc) and 0.0 <= rc <= r * (1 + 1e-12)):
-        raise InputError(f"{where}.corner_radius must be in [0, D/2 = {r / MM:g}] mm, got "
-                         f"{rc / MM:g} mm")
+        raise InputError(f"{where}.corner_radius must be in [0, D/2 = {r / MM:.15g}] mm, got "
+                         f"{rc / MM:.15g} mm")
     rules = {
         CutterShape.FLAT: (rc == 0.0 and taper == 0.0, "a flat end mill has no corner radius "
                            "and no taper (shape: bull or tapered)"),
         CutterShape.BALL: (rc == r and taper == 0.0, "a ball-nose has corner radius D/2 and "
                            "no taper (shape: tapered with corner_radius_mm for a tapered ball)"),
         CutterShape.BULL: (0.0 < rc < r and taper == 0.0, "a bull-nose has 0 < corner radius "
-                           "< D/2 and no taper"),
+                           "< D/2 and no taper (corner radius D/2: shape: ball)"),
         CutterShape.TAPERED: (0.0 < taper <= MAX_TAPER_DEG, f"a tapered mill needs taper_deg in "
                               f"(0, {MAX_TAPER_DEG:g}]"),
-        CutterShape.FACE: (0.0 <= taper < 90.0 and rc < r, "a face mill needs lead_angle_deg in "
-                           "(0, 90] and a nose radius below D/2"),
+        CutterShape.FACE: (0.0 <= taper <= MAX_TAPER_DEG and rc < r, "a face mill needs "
+                           f"lead_angle_deg in [{90 - MAX_TAPER_DEG:g}, 90] and a nose radius "
+                           "below D/2"),
     }
     ok, rule = rules[shape]
     if not ok:
-        raise InputError(f"{where}: shape {shape.value} with corner radius {rc / MM:g} mm and "
-                         f"taper {taper:g} deg: {rule}")
+        raise InputError(f"{where}: shape {shape.value} with corner radius {rc / MM:.15g} mm "
+                         f"and taper {taper:g} deg: {rule}")
 
 
 #: Keys of a tool file: the ones the model uses, then free text and informative lengths.
@@ -181,7 +203,8 @@ _TOOL_HINTS = {word: f"use {key}" for word, key in (
     ("ball", "shape: ball"), ("stick", "stickout_mm"), ("overhang", "stickout_mm"),
     ("projection", "stickout_mm"), ("entering", "lead_angle_deg"), ("lead", "lead_angle_deg"),
     ("young", "youngs_modulus_gpa"), ("modulus", "youngs_modulus_gpa"),
-    ("stiffness", "tip_stiffness_n_per_um"))}
+    ("stiffness", "tip_stiffness_n_per_um"), ("taper", "taper_deg (shape: tapered)"),
+    ("angle", "lead_angle_deg (face) or taper_deg (tapered)"))}
 
 
 def load_tool(path: str | Path) -> Tool:
@@ -218,25 +241,30 @@ def load_tool(path: str | Path) -> Tool:
         raise InputError(f"{where}.flute_length_mm: must be > 0 mm, got {flute_mm:g}")
     _check_informative(data, where, flute_mm)
     shape, corner_mm, taper_deg = _shape_fields(data, where, diameter_mm)
+    bending = _bending_fields(data, where, flute_mm)
     try:
         return Tool(
             name=text(data, "name", where, Path(path).stem),
             diameter=diameter_mm * MM, teeth=teeth, helix=math.radians(helix_deg),
             flute_length=flute_mm * MM, shape=shape, corner_radius=corner_mm * MM,
-            taper=math.radians(taper_deg), **_bending_fields(data, where),
+            taper=math.radians(taper_deg), **bending,
         )
-    except InputError as err:
-        raise InputError(f"{where}: {err}") from None
+    except InputError as err:  # validate_tool names the field "tool.x" / "tool:"
+        message = str(err)
+        for prefix in ("tool: ", "tool."):
+            message = message.removeprefix(prefix)
+        raise InputError(f"{where}: {message}") from None
 
 
 def _shape_fields(data: dict, where: str, diameter_mm: float) -> tuple[CutterShape, float, float]:
     """(shape, corner radius [mm], taper [deg]) of a tool file."""
     name = data.get("shape", "flat")
     try:
-        shape = CutterShape(name)
+        shape = CutterShape(name.strip().lower() if isinstance(name, str) else name)
     except ValueError:
-        raise InputError(f"{where}.shape: {name!r} is not one of "
-                         f"{', '.join(s.value for s in CutterShape)}") from None
+        got = "null" if name is None else repr(name)
+        raise InputError(f"{where}.shape: expected one of "
+                         f"{', '.join(s.value for s in CutterShape)}, got {got}") from None
     corner = number(data, "corner_radius_mm", where) if "corner_radius_mm" in data else None
     if shape is CutterShape.BALL and corner is None:
         corner = diameter_mm / 2.0
@@ -248,8 +276,9 @@ def _shape_fields(data: dict, where: str, diameter_mm: float) -> tuple[CutterSha
             raise InputError(f"{where}.lead_angle_deg: only a face mill (shape: face) has a "
                              "lead angle")
         lead = number(data, "lead_angle_deg", where)
-        if not 0 < lead <= 90:
-            raise InputError(f"{where}.lead_angle_deg: must be in (0, 90] deg, got {lead:g}")
+        if not 90.0 - MAX_TAPER_DEG <= lead <= 90:
+            raise InputError(f"{where}.lead_angle_deg: must be in [{90 - MAX_TAPER_DEG:g}, 90] "
+                             f"deg (the inserts' entering angle), got {lead:g}")
         taper = 90.0 - lead
     elif shape is CutterShape.FACE:
         raise InputError(f"{where}: a face mill needs lead_angle_deg (its inserts' entering "
@@ -257,8 +286,9 @@ def _shape_fields(data: dict, where: str, diameter_mm: float) -> tuple[CutterSha
     return shape, 0.0 if corner is None else corner, taper
 
 
-def _bending_fields(data: dict, where: str) -> dict:
-    """stickout, shank diameter, E and measured tip stiffness of a tool file (SI)."""
+def _bending_fields(data: dict, where: str, flute_mm: float) -> dict:
+    """stickout, shank diameter, E and measured tip stiffness of a tool file (SI), each
+    within :data:`BENDING_RANGES`."""
     out: dict = {}
     for key, field, scale in (("stickout_mm", "stickout", MM),
                               ("shank_diameter_mm", "shank_diameter", MM),
@@ -266,21 +296,36 @@ def _bending_fields(data: dict, where: str) -> dict:
                               ("tip_stiffness_n_per_um", "tip_stiffness", N_PER_M_PER_N_PER_UM)):
         if data.get(key) is not None:
             value = number(data, key, where)
-            if not value > 0:
-                raise InputError(f"{where}.{key}: must be > 0, got {value:g}")
+            low, high, unit = BENDING_RANGES[key]
+            if not low <= value <= high:
+                raise InputError(f"{where}.{key}: {value:g} {unit} is outside the plausible "
+                                 f"{low:g}..{high:g} {unit} (a unit slip?)")
             out[field] = value * scale
-    if "stickout" in out and "youngs_modulus" not in out:
-        material = str(data.get("material") or "").strip().lower()
-        if material not in YOUNGS_MODULUS_PA:
+    if "youngs_modulus" in out and "stickout" not in out:
+        raise InputError(f"{where}.youngs_modulus_gpa: only used with stickout_mm (the tool's "
+                         "bending); give the stickout or drop it")
+    if "stickout" in out:
+        if out["stickout"] < flute_mm * MM:
             raise InputError(
-                f"{where}: stickout_mm needs the tool's Young's modulus: material one of "
-                f"{', '.join(YOUNGS_MODULUS_PA)} (got {data.get('material')!r}) or "
-                "youngs_modulus_gpa")
-        out["youngs_modulus"] = YOUNGS_MODULUS_PA[material]
-    if "stickout" in out and out["stickout"] > float(data.get("overall_length_mm") or math.inf
-                                                     ) * MM:
-        raise InputError(f"{where}.stickout_mm: longer than overall_length_mm")
+                f"{where}.stickout_mm: {out['stickout'] / MM:g} mm is shorter than the flute "
+                f"length {flute_mm:g} mm: the holder would clamp the flutes; give the length "
+                "of flutes that sticks out as flute_length_mm")
+        if out["stickout"] > float(data.get("overall_length_mm") or math.inf) * MM:
+            raise InputError(f"{where}.stickout_mm: longer than overall_length_mm")
+        if "youngs_modulus" not in out:
+            out["youngs_modulus"] = _modulus_of(data, where)
     return out
+
+
+def _modulus_of(data: dict, where: str) -> float:
+    """E [Pa] of the tool file's ``material`` (:data:`YOUNGS_MODULUS_PA`, any case)."""
+    material = str(data.get("material") or "").strip().lower()
+    if material not in YOUNGS_MODULUS_PA:
+        got = f"got {data['material']!r}" if data.get("material") else "none given"
+        raise InputError(
+            f"{where}: stickout_mm needs the tool's Young's modulus: material one of "
+            f"{', '.join(YOUNGS_MODULUS_PA)} ({got}) or youngs_modulus_gpa")
+    return YOUNGS_MODULUS_PA[material]
 
 
 def _check_informative(data: dict, where: str, flute_mm: float) -> None:

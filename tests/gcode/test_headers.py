@@ -43,6 +43,7 @@ INCH = 25.4
     ("T1 P1 D0.125 Z+0.511 ;1/8 end mill", 1, 0.125, None, ToolShape.OTHER, None),
     ("T3 6mm ball end mill", 3, 6.0, None, ToolShape.BALL, None),
     ("T7 1/8 flat endmill", 7, 3.175, None, ToolShape.FLAT, None),
+    ("T1 D2 CR=0.3 ;2mm bull nose end mill", 1, 2.0, 0.3, ToolShape.BULL, None),
     ("TC: 5mm Endmill", None, 5.0, None, ToolShape.OTHER, None),  # FreeCAD
 ])
 def test_tool_comment_forms(comment, number, d, cr, shape, zmin):

@@ -246,3 +246,16 @@ def test_calibrate_unphysical_fit_refused_with_out_warned_without(tmp_path, caps
     err = capsys.readouterr().err
     assert err.startswith("feedopt calibrate: warning: the fit gives unphysical coefficient")
     assert f"{field} = -" in err and "Not writing" not in err
+
+
+def test_forces_notes_a_cutter_wider_above_its_tip(tmp_path, capsys):
+    import yaml
+    tool = tmp_path / "taper.yaml"
+    tool.write_text(yaml.safe_dump({"name": "taper", "diameter_mm": 6.0, "teeth": 2,
+                                    "helix_deg": 30, "flute_length_mm": 10, "shape": "tapered",
+                                    "taper_deg": 5}))
+    args = ["forces", "--tool", str(tool), "--coeffs", str(MATERIAL_YAML), "--rpm", "2000",
+            "--feed-mm-s", "4.23", "--axial-depth-mm", "2"]
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "warning: the tapered cutter is 7.75 mm across at the top of its flutes" in err

@@ -73,3 +73,15 @@ def test_header_for_picks_the_cutting_tool():
     assert header_for((a, b), 5) is None
     assert header_for((_header(number=None),), 2).number is None
     assert header_for((), 1) is None
+
+
+def test_a_tapered_ball_nose_is_a_ball_end_mill_but_a_tapered_flat_is_not():
+    import math
+    tapered_ball = Tool(name="tb", diameter=2.0 * MM, teeth=2, helix=0.5, flute_length=10 * MM,
+                        shape=CutterShape.TAPERED, corner_radius=1.0 * MM, taper=math.radians(3))
+    header = _header(d=2.0, cr=None, shape=ToolShape.BALL)
+    assert check_tool_header(header, tapered_ball, "p", "t") == []
+    tapered_flat = Tool(name="tf", diameter=2.0 * MM, teeth=2, helix=0.5, flute_length=10 * MM,
+                        shape=CutterShape.TAPERED, taper=math.radians(3))
+    with pytest.raises(InputError, match="ball end mill.*tapered cutter"):
+        check_tool_header(header, tapered_flat, "p", "t")

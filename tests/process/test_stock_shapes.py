@@ -130,11 +130,10 @@ def test_two_ball_passes_leave_the_scallop_of_their_step_over(step_mm):
 
 
 def test_a_cutter_wider_above_its_tip_is_noted_with_its_width():
-    from feedopt.process.material import _wider_above_tip
+    from feedopt.process.tool import wider_above_tip
 
     tapered = Tool("taper", 6 * MM, 2, 0.5, 10 * MM, shape=CutterShape.TAPERED,
                    taper=math.radians(5))
-    (note,) = _wider_above_tip(tapered)
     # 6 mm tip + 2 * 10 mm * tan 5 deg at the top of the flutes
-    assert f"{6 + 20 * math.tan(math.radians(5)):.4g} mm across" in note
-    assert _wider_above_tip(_ball()) == ()
+    assert f"{6 + 20 * math.tan(math.radians(5)):.4g} mm across" in wider_above_tip(tapered)
+    assert wider_above_tip(_ball()) is None
