@@ -86,3 +86,16 @@ def test_surface_mode_with_a_ball_is_refused_naming_the_tool(tmp_path):
     with pytest.raises(InputError, match="flat end mill's; tool tools/carbide_ball_2mm.yaml is "
                                          "a ball cutter"):
         run_scenario(tmp_path / "s.yaml", tmp_path / "out", progress=quiet, report=False)
+
+
+def test_a_limit_below_the_edge_forces_names_the_tools_stiffness(tmp_path):
+    for name in ("gcode", "tools", "materials"):
+        shutil.copytree(ROOT / "scenarios" / name, tmp_path / name)
+    doc = yaml.safe_load(SCENARIO.read_text())
+    doc["deflection"]["limit_mm"] = 0.02
+    doc["robot"]["directory"] = str(ROOT / "robots" / "kuka_kr500_3")
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(InputError, match=r"exceeded by the edge forces alone.*The tool's own "
+                                         r"bending is part of it: '2-flute 2 mm carbide "
+                                         r"ball-nose' is 4.37 N/um at its tip"):
+        run_scenario(tmp_path / "s.yaml", tmp_path / "out", progress=quiet, report=False)

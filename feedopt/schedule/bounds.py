@@ -284,8 +284,18 @@ class DeflectionConstraint:
                 f"(zero feed) at {bad.size} samples; the worst is sample {i}{where} with "
                 f"{zero[i] / MM:.4g} mm at zero feed ({(zero[i] - limit) / MM:.3g} mm over). "
                 f"The smallest limit that allows any feed is above {zero.max() / MM:.4g} mm."
+                + _tool_note(inputs.model.tool)
             )
         return v_defl
+
+
+def _tool_note(tool) -> str:
+    """The tool's own stiffness, for a message about deflection, when the tool bends."""
+    if not getattr(tool, "bends", False):
+        return ""
+    lateral, _ = tool.tip_compliance()
+    return (f" The tool's own bending is part of it: {tool.name!r} is {1e-6 / lateral:.3g} "
+            "N/um at its tip (tool file stickout_mm / tip_stiffness_n_per_um).")
 
 
 @dataclass(frozen=True)
