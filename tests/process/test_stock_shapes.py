@@ -137,3 +137,34 @@ def test_a_cutter_wider_above_its_tip_is_noted_with_its_width():
     # 6 mm tip + 2 * 10 mm * tan 5 deg at the top of the flutes
     assert f"{6 + 20 * math.tan(math.radians(5)):.4g} mm across" in wider_above_tip(tapered)
     assert wider_above_tip(_ball()) is None
+
+
+@pytest.mark.parametrize("step_mm", [0.5, 1.5, 3.0])
+def test_a_ball_pass_beside_the_last_one_cuts_the_crescent_between_them(step_mm):
+    """A second ball pass b beside a first at the same depth a: the material it meets is what
+    the first left above the second's surface. Its cross-section, integrated over y by a fine
+    quadrature of the two balls' lower surfaces, is the engaged area and the removed volume
+    per length."""
+    a, b = 2.0 * MM, step_mm * MM
+    ball = _ball()
+    stock = ZMap.box(-5 * MM, 40 * MM, -15 * MM, 15 * MM, -10 * MM, 0.0, cell=CELL)
+    tool = FlatEndMill.from_tool(ball)
+    sweep(stock, tool, *_line(a, y=0.0))
+    p, t = _line(a, y=b)
+    # pieces split where the depth changes by 5 um (each at its largest depth: the engaged
+    # area is over by at most that depth times the width; 0.1 mm, the default, is coarse
+    # for a crescent this thin)
+    found = sweep(stock, tool, p, t, depth_step=0.005 * MM)
+    y = np.linspace(b - R, b + R, 400_001)
+
+    def lower(y0):  # the ball's lower surface, inf outside its reach
+        d = np.abs(y - y0)
+        return np.where(d <= R, -a + R - np.sqrt(np.maximum(R * R - d * d, 0.0)), np.inf)
+
+    left = np.minimum(0.0, lower(0.0))  # the top after the first pass
+    exact = float(np.sum(np.maximum(left - lower(b), 0.0)) * (y[1] - y[0]))
+    removed = found.removed[150:300].sum() / (p[300, 0] - p[150, 0])
+    # the force frame's y is to the left of the feed (+x): the first pass is at -y there
+    assert removed == pytest.approx(exact, rel=0.01)
+    # (measured: 1.0000 of it at 5 um; 1.007 / 1.15 at 20 / 100 um for b = 0.5 mm, always over)
+    assert _engaged_area(ball, found.engagement, 200) == pytest.approx(exact, rel=2e-3)
