@@ -261,6 +261,9 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
                  else part_samples(problem.s, e.exit > e.entry))
         if model.tool.is_flat:  # the wall/floor model is a flat end mill's (its bottom edge)
             surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
+        elif np.isfinite(tolerances).any():  # refused upstream (process stage): a bug here
+            raise ValueError(f"part tolerances need a flat end mill; the tool is a "
+                             f"{model.tool.shape.value} cutter")
     shared = (time.perf_counter() - t0) / max(len(replayable), 1)
     out = {}
     for law, traj in trajectories.items():

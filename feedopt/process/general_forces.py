@@ -102,12 +102,15 @@ def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEn
     over each sample's (largest) axial depth; a slice at height z takes the pieces deeper than
     z (a sample without pieces: its one interval), projected to its radius and merged where
     they touch or overlap."""
-    sliced = profile_slices(tool.profile, engagement.axial_depth, slices)
     radius = tool.diameter / 2.0
     if engagement.pieces is None:
+        sliced = profile_slices(tool.profile, engagement.axial_depth, slices)
         lo, hi = slice_intervals(radius, sliced, engagement.entry, engagement.exit)
         return SliceEngagement(sliced, lo[..., None], hi[..., None])
     entry, exit_, depth = _padded_pieces(engagement)  # (n, W)
+    # sliced over the deepest piece (the summary depth is that already, from the stock)
+    sliced = profile_slices(tool.profile, np.maximum(engagement.axial_depth, depth.max(axis=1)),
+                            slices)
     los, his = [], []
     for w in range(entry.shape[1]):
         lo, hi = slice_intervals(radius, sliced, entry[:, w], exit_[:, w])

@@ -359,3 +359,19 @@ def test_pieces_of_different_depths_sum_to_their_separate_forces():
                                ).forces(1e-4) for e, x, a in zip(*pieces, strict=True))
     scale = np.abs(alone.mean(axis=1)).max()
     np.testing.assert_allclose(together.mean(axis=1), alone.mean(axis=1), atol=2e-3 * scale)
+
+
+def test_a_piece_deeper_than_the_summary_depth_is_cut_to_its_own_depth():
+    from feedopt.process.engagement import EngagementPieces
+    tool = Tool("ball", 10e-3, 2, np.radians(30), 20e-3, shape=CutterShape.BALL,
+                corner_radius=5e-3)
+    angles = np.linspace(0.0, np.pi, 91, endpoint=False)
+
+    def pieced(summary_depth):
+        p = EngagementPieces(np.zeros(2, dtype=int), [0.2, 1.4], [1.4, 2.6], [2e-3, 0.5e-3])
+        return Engagement(np.array([0.2]), np.array([2.6]), np.array([summary_depth]), pieces=p)
+
+    short = milling_forces(tool, K, pieced(1e-3), angles, 40)
+    full = milling_forces(tool, K, pieced(2e-3), angles, 40)
+    np.testing.assert_array_equal(short.cutting, full.cutting)
+    np.testing.assert_array_equal(short.edge, full.edge)
