@@ -180,9 +180,9 @@ def _validate_shape(tool: Tool, where: str) -> None:
                            "no taper (shape: tapered with corner_radius_mm for a tapered ball)"),
         CutterShape.BULL: (0.0 < rc < r and taper == 0.0, "a bull-nose has 0 < corner radius "
                            "< D/2 and no taper (corner radius D/2: shape: ball)"),
-        CutterShape.TAPERED: (0.0 < taper <= MAX_TAPER_DEG, f"a tapered mill needs taper_deg in "
-                              f"(0, {MAX_TAPER_DEG:g}]"),
-        CutterShape.FACE: (0.0 <= taper <= MAX_TAPER_DEG and rc < r, "a face mill needs "
+        CutterShape.TAPERED: (0.0 < taper <= MAX_TAPER_DEG + 1e-9, "a tapered mill needs "
+                              f"taper_deg in (0, {MAX_TAPER_DEG:g}]"),
+        CutterShape.FACE: (0.0 <= taper <= MAX_TAPER_DEG + 1e-9 and rc < r, "a face mill needs "
                            f"lead_angle_deg in [{90 - MAX_TAPER_DEG:g}, 90] and a nose radius "
                            "below D/2"),
     }

@@ -39,7 +39,7 @@ def tools(draw, shapes=tuple(CutterShape), sharp: bool = True) -> Tool:
         taper = math.radians(draw(st.floats(0.1, 80.0)))
         rc = r * draw(corner | st.just(1.0))
     elif shape is CutterShape.FACE:
-        taper = math.radians(90.0 - draw(st.floats(1.0, 90.0)))  # lead angle 1..90 deg
+        taper = math.radians(90.0 - draw(st.floats(10.0, 90.0)))  # lead angle 10..90 deg
         rc = r * draw(corner)
     flute = draw(st.floats(0.1, 150.0)) * MM
     return Tool("t", d, 2, math.radians(30.0), flute, shape=shape, corner_radius=rc, taper=taper)
