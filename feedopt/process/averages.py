@@ -48,8 +48,7 @@ def average_forces(
     broadcast against each other. ``exit <= entry`` gives zero force.
     """
     if not tool.is_flat:  # ball, bull, tapered, face: per slice of the profile
-        return general_average(tool.profile, (tool.diameter, tool.teeth, 0.0), coeffs,
-                               (entry, exit, axial_depth), feed_per_tooth)
+        return general_average(tool, coeffs, (entry, exit, axial_depth), feed_per_tooth)
     st = np.asarray(entry, dtype=float)
     ex = np.asarray(exit, dtype=float)
     a = np.asarray(axial_depth, dtype=float)

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.process.coefficients import CuttingCoefficients
-from feedopt.process.cutter import Profile, Slices, profile_slices
+from feedopt.process.cutter import Slices, profile_slices
 from feedopt.process.engagement import Engagement
 from feedopt.process.force_sums import settle_critical
 from feedopt.process.tool import Tool
@@ -257,8 +257,7 @@ def general_critical_angles(tool: Tool, se: SliceEngagement) -> np.ndarray:
 AVERAGE_SLICES = 200
 
 
-def general_average(profile: Profile, geometry: tuple[float, int, float],
-                    coeffs: CuttingCoefficients,
+def general_average(tool: Tool, coeffs: CuttingCoefficients,
                     engagement: tuple[np.ndarray, np.ndarray, np.ndarray],
                     feed_per_tooth: np.ndarray, slices: int = AVERAGE_SLICES) -> np.ndarray:
     """Mean force on the tool over one revolution [N] (..., 3) of a general cutter: per
@@ -275,15 +274,14 @@ def general_average(profile: Profile, geometry: tuple[float, int, float],
     rows = max(1, _BLOCK // slices)
     for start in range(0, out.shape[0], rows):
         sl = slice(start, start + rows)
-        out[sl] = _average_rows(profile, geometry, coeffs, [a[sl] for a in flat], slices)
+        out[sl] = _average_rows(tool, coeffs, [a[sl] for a in flat], slices)
     return out.reshape(shape + (3,))
 
 
-def _average_rows(profile: Profile, geometry: tuple[float, int, float],
-                  coeffs: CuttingCoefficients, rows: list[np.ndarray], slices: int
-                  ) -> np.ndarray:
+def _average_rows(tool: Tool, coeffs: CuttingCoefficients, rows: list[np.ndarray],
+                  slices: int) -> np.ndarray:
     """:func:`general_average` of 1-D (entry, exit, depth, feed per tooth) rows, (r, 3)."""
-    diameter, teeth, _ = geometry
+    diameter, teeth, profile = tool.diameter, tool.teeth, tool.profile
     entry, exit_, depth, c = rows
     exit_ = np.maximum(exit_, entry)
     sliced = profile_slices(profile, depth, slices)
