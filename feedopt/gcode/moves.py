@@ -202,6 +202,12 @@ class Move:
     #: the start was not known (program start, after M6/G28/G53): its unknown coordinates
     #: were taken from the end; the path plans an approach through the air to it
     approach: bool = False
+    #: five-axis programs: the unit tool vector (from the tool tip into the spindle, in the
+    #: program's frame) at the start and at the end of the move; the controller turns it
+    #: along the great circle between them, in proportion to the distance travelled
+    #: (G43.5 / TCPM, APT ``GOTO/x,y,z,i,j,k``). None for three-axis programs (+Z throughout)
+    axis_start: Vec3 | None = None
+    axis_end: Vec3 | None = None
 
     @property
     def normal(self) -> Vec3 | None:
@@ -324,6 +330,23 @@ class Program:
     def sample_move(self, index: int, max_angle_deg: float = 5.0) -> np.ndarray:
         """Points along ``moves[index]``; see :func:`sample_move`."""
         return sample_move(self.moves[index], max_angle_deg)
+
+    @property
+    def five_axis(self) -> bool:
+        """True when the moves carry tool vectors (:attr:`Move.axis_start`)."""
+        return any(m.axis_start is not None for m in self.moves)
+
+    @cached_property
+    def axes_start(self) -> np.ndarray:
+        """Tool vectors at the move starts, shape ``(n, 3)`` (+Z where a move has none)."""
+        return _readonly(np.array([m.axis_start or (0.0, 0.0, 1.0) for m in self.moves],
+                                  dtype=float).reshape(-1, 3))
+
+    @cached_property
+    def axes_end(self) -> np.ndarray:
+        """Tool vectors at the move ends, shape ``(n, 3)`` (+Z where a move has none)."""
+        return _readonly(np.array([m.axis_end or (0.0, 0.0, 1.0) for m in self.moves],
+                                  dtype=float).reshape(-1, 3))
 
     @cached_property
     def starts(self) -> np.ndarray:
