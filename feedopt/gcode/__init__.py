@@ -5,6 +5,7 @@
 is an :class:`~feedopt.errors.InputError` naming the line, the N number and the word.
 """
 
+from feedopt.gcode.apt import parse_apt, read_apt
 from feedopt.gcode.interpreter import MM_PER_INCH, parse_gcode, read_gcode
 from feedopt.gcode.moves import (
     SAME_POINT_MM,
@@ -32,7 +33,9 @@ __all__ = [
     "StopKind",
     "ToolHeader",
     "ToolShape",
+    "parse_apt",
     "parse_gcode",
+    "read_apt",
     "read_gcode",
     "sample_move",
 ]
