@@ -49,10 +49,7 @@ def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
     transform = workpiece_transform(position_mm, rpy_deg)
     rot = transform[:3, :3]
     positions = samples.position @ rot.T + transform[:3, 3]
-    axis_w = np.asarray(tool_axis_w, dtype=float)
-    if np.linalg.norm(axis_w) < 1e-12:
-        raise InputError("workpiece.tool_axis must be a non-zero vector")
-    axis = np.broadcast_to(rot @ (axis_w / np.linalg.norm(axis_w)), positions.shape).copy()
+    axis = _tool_axes(samples, rot, tool_axis_w)
     tangents = samples.tangent @ rot.T
     along = np.abs(np.sum(tangents * axis, axis=1))
     frame_tangents = tangents
@@ -69,6 +66,21 @@ def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
                          "across the tool axis")
     return Placement(transform=transform, positions=positions, tool_axes=axis,
                      tangents=tangents, frames=feed_frames(frame_tangents, axis))
+
+
+def _tool_axes(samples: PathPoints, rot: np.ndarray, tool_axis_w) -> np.ndarray:
+    """(n, 3) unit tool axes in the base frame: a five-axis path's own (``samples.axis``,
+    then ``workpiece.tool_axis`` must be left at its default), else ``tool_axis_w``."""
+    axis_w = np.asarray(tool_axis_w, dtype=float)
+    if samples.axis is not None:
+        if np.any(axis_w != (0.0, 0.0, 1.0)):
+            raise InputError("workpiece.tool_axis is for three-axis paths: this path's tool "
+                             "vectors give the tool axis at every point (remove tool_axis)")
+        return samples.axis @ rot.T
+    if np.linalg.norm(axis_w) < 1e-12:
+        raise InputError("workpiece.tool_axis must be a non-zero vector")
+    return np.broadcast_to(rot @ (axis_w / np.linalg.norm(axis_w)),
+                           samples.position.shape).copy()
 
 
 def fixed_x_axes(placement: Placement, fix_tool_rotation: bool) -> np.ndarray | None:

@@ -36,11 +36,13 @@ LAWS = law_names()  # the built-in laws, for defaults and CLI help
 #: the baseline each kind of path is compared with: constant (one nominal feed) or the
 #: program's own feeds; a scenario without schedule.laws runs every law but the other one
 BASELINE_OF_PROGRAMS, BASELINE_OF_PATHS = "programmed", "constant"
+#: path generators that read a CAM program (moves with feeds, rapids, stops): G-code, APT CL
+PROGRAM_GENERATORS = ("gcode", "apt")
 
 
 def default_laws(generator: str) -> list[str]:
     """Every registered law except the baseline that does not apply to ``generator``."""
-    other = BASELINE_OF_PATHS if generator == "gcode" else BASELINE_OF_PROGRAMS
+    other = BASELINE_OF_PATHS if generator in PROGRAM_GENERATORS else BASELINE_OF_PROGRAMS
     return [law for law in LAW_REGISTRY if law != other]
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
@@ -111,10 +113,11 @@ class WorkpieceSection(_Strict):
 class PathSection(_Strict):
     """Tool path in the workpiece frame: a generator or a waypoint file, and its blends."""
 
-    generator: Literal["triangle_wave", "square_wave", "line", "csv", "gcode"] = Field(
+    generator: Literal["triangle_wave", "square_wave", "line", "csv", "gcode", "apt"] = Field(
         description="triangle_wave | square_wave (length/height/waves), line (start/end), "
-        "csv (file with columns x_mm,y_mm,z_mm), gcode (a CAM program: file; its F words are "
-        "the nominal feed per move, its S word the spindle speed)")
+        "csv (file with columns x_mm,y_mm,z_mm, optionally i,j,k tool vectors), gcode (a CAM "
+        "program: file; its F words are the nominal feed per move, its S word the spindle "
+        "speed), apt (an APT CL file, five-axis GOTO/x,y,z,i,j,k: read like a program)")
     length_mm: PositiveFloat = Field(304.8, description="wave length along x (mm)")
     height_mm: PositiveFloat = Field(76.2, description="wave height along y (mm)")
     waves: Annotated[int, Field(ge=1)] = Field(3, description="number of waves")
@@ -155,6 +158,10 @@ class PathSection(_Strict):
                                              "chain (mm)")
     chain_max_turn_deg: Annotated[float, Field(gt=0, le=90, allow_inf_nan=False)] = Field(
         15.0, description="gcode: ... when consecutive moves turn by at most this (deg)")
+    orientation_tolerance_deg: Annotated[float, Field(gt=0, le=10, allow_inf_nan=False)] = (
+        Field(0.2, description="five-axis paths (gcode with tool vectors, apt, csv with "
+              "columns i,j,k): largest angle between the smoothed tool vector and the "
+              "programmed one where consecutive great circles are blended (deg)"))
     tool_number: Annotated[int, Field(ge=0)] | None = Field(
         None, description="gcode: the program's tool number (T) the scenario's tool file "
         "describes (default: the program's only tool)")
@@ -172,6 +179,8 @@ class PathSection(_Strict):
             raise ValueError("generator 'csv' needs 'file' (a waypoint CSV: x_mm,y_mm,z_mm)")
         if self.generator == "gcode" and not self.file:
             raise ValueError("generator 'gcode' needs 'file' (a G-code program)")
+        if self.generator == "apt" and not self.file:
+            raise ValueError("generator 'apt' needs 'file' (an APT CL file)")
         return self
 
 
@@ -347,6 +356,12 @@ class LimitsSection(_Strict):
     spindle_torque_nm: PositiveFloat = Field(400.0, description="spindle torque limit (thesis: "
                                              "Suhner Max 40B)")
     spindle_power_w: PositiveFloat = Field(7500.0, description="spindle power limit")
+    orientation_rate_deg_s: PositiveFloat | None = Field(
+        None, description="five-axis paths: largest rate at which the tool axis turns "
+        "(deg/s; default: none, the joint limits bind)")
+    orientation_acceleration_deg_s2: PositiveFloat | None = Field(
+        None, description="five-axis paths: largest angular acceleration of the tool axis "
+        "(deg/s^2; default: none)")
 
 
 class ScheduleSection(_Strict):
@@ -514,7 +529,7 @@ class Scenario(_Strict):
 
     @model_validator(mode="after")
     def _program_sets_feed(self) -> Scenario:
-        program = self.path.generator == "gcode"
+        program = self.path.generator in PROGRAM_GENERATORS
         if program and self.feed.nominal_mm_s is not None:
             raise ValueError("feed.nominal_mm_s: with path.generator gcode the program's F "
                              "words are the nominal feed of every move; remove "
@@ -615,7 +630,7 @@ def scenario_input_files(scenario: Scenario, base_dir: Path) -> list[Path]:
         return Path(os.path.abspath(p if p.is_absolute() else base_dir / p))
 
     files = [at(scenario.tool), at(scenario.material)]
-    if scenario.path.generator in ("csv", "gcode") and scenario.path.file:
+    if scenario.path.generator in ("csv", *PROGRAM_GENERATORS) and scenario.path.file:
         files.append(at(scenario.path.file))
     if scenario.stock is not None and scenario.stock.mesh is not None:
         files.append(at(scenario.stock.mesh))

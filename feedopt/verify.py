@@ -259,7 +259,8 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
         e = model.engagement
         index = (None if np.isfinite(tolerances).any()
                  else part_samples(problem.s, e.exit > e.entry))
-        if model.tool.is_flat:  # the wall/floor model is a flat end mill's (its bottom edge)
+        fixed_axis = np.ptp(model.frames[:, :, 2], axis=0).max() <= 1e-12
+        if model.tool.is_flat and fixed_axis:  # a flat end mill's wall/floor, along its z
             surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
         elif np.isfinite(tolerances).any():  # refused upstream (process stage): a bug here
             raise ValueError(f"part tolerances need a flat end mill; the tool is a "

@@ -322,7 +322,21 @@ def export_rsi(job: ExportJob, out_dir: Path) -> dict:
         *frames_header_lines(job.robot),
         *header_notes(job),
     ])
-    return {"fk_vs_path_error_mm": interp_error / MM, "rsi_csv": f"{job.law}.csv"}
+    return {"fk_vs_path_error_mm": interp_error / MM,
+            "fk_vs_path_axis_error_deg": axis_error_deg(job, pose), "rsi_csv": f"{job.law}.csv"}
+
+
+def axis_error_deg(job: ExportJob, pose: np.ndarray) -> float:
+    """Largest angle [deg] between the tool axis of the commanded poses (FK's z) and the
+    path's tool axis at the controller samples (interpolated between the path samples,
+    where the IK holds it exactly): the orientation the stream would leave the path by."""
+    axes = job.sample_tool_axes
+    s = job.samples.motion.s
+    want = np.column_stack([np.interp(s, job.problem.s, axes[:, k]) for k in range(3)])
+    want /= np.linalg.norm(want, axis=1, keepdims=True)
+    got = pose[:, :3, 2]
+    cross = np.linalg.norm(np.cross(got, want), axis=1)
+    return float(np.degrees(np.max(np.arctan2(cross, np.einsum("ij,ij->i", got, want)))))
 
 
 EXPORTER = Exporter(

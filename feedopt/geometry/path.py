@@ -72,7 +72,9 @@ class PathPoints:
 
     s : (n,) arc length [m]; position (n, 3) [m]; tangent (n, 3) unit dp/ds;
     curvature (n, 3) curvature vector d2p/ds2 [1/m]; dcurvature (n, 3) d3p/ds3 [1/m^2];
-    segment (n,) index into ``Path.segments``.
+    segment (n,) index into ``Path.segments``; five-axis paths (``Path.orientation``): the
+    unit tool vector ``axis`` (n, 3) and its derivatives ``axis_d1`` [1/m], ``axis_d2``
+    [1/m^2] by arc length (None on three-axis paths, whose tool axis is the workpiece's).
     """
 
     s: np.ndarray
@@ -81,6 +83,9 @@ class PathPoints:
     curvature: np.ndarray
     dcurvature: np.ndarray
     segment: np.ndarray
+    axis: np.ndarray | None = None
+    axis_d1: np.ndarray | None = None
+    axis_d2: np.ndarray | None = None
 
 
 class LineEvaluator:
@@ -142,6 +147,9 @@ class Path:
         #: where the tool stops (a :class:`~feedopt.geometry.stops.StopTable`, or anything
         #: with an increasing array ``s`` [m]); :meth:`sample` samples every stop exactly
         self.stops = None
+        #: five-axis paths: the tool's orientation u(s)
+        #: (:class:`~feedopt.geometry.orientation.ToolOrientation`); None: three-axis
+        self.orientation = None
         self._start = np.array([g.s_start for g in segs], dtype=float)
         self._len = np.array([g.length for g in segs], dtype=float)
         self._offset = np.array([g.offset for g in segs], dtype=float)
@@ -180,8 +188,11 @@ class Path:
         s = np.clip(s, 0.0, self.length)
         seg = np.clip(np.searchsorted(self._start, s, side="right") - 1, 0, len(self._start) - 1)
         pos, tan, curv, dcurv = self._eval_segments(seg, s - self._start[seg])
+        axis = None if self.orientation is None else self.orientation.evaluate(s)
         return PathPoints(s=s, position=pos, tangent=tan, curvature=curv, dcurvature=dcurv,
-                          segment=seg)
+                          segment=seg, axis=None if axis is None else axis.axis,
+                          axis_d1=None if axis is None else axis.d1,
+                          axis_d2=None if axis is None else axis.d2)
 
     @property
     def stop_s(self) -> np.ndarray:
@@ -204,11 +215,14 @@ class Path:
             raise InputError(
                 f"sample spacing must be a positive, finite number of mm, got {spacing / MM:g} mm")
         inner = self.stop_s
-        if not inner.size:
+        if not inner.size and self.orientation is None:
             n = int(np.ceil(self.length / spacing - 1e-9)) + 1
             return self.evaluate(np.linspace(0.0, self.length, max(n, 2)))
-        return self.evaluate(piecewise_uniform(np.concatenate([[0.0], inner, [self.length]]),
-                                               spacing))
+        bounds = np.concatenate([[0.0], inner, [self.length]])
+        if self.orientation is None:
+            return self.evaluate(piecewise_uniform(bounds, spacing))
+        bounds, spacings = self.orientation.sample_spacing(bounds, spacing)
+        return self.evaluate(piecewise_uniform(bounds, spacings))
 
     def _eval_segments(self, seg: np.ndarray, sl: np.ndarray):
         """Evaluate segments ``seg`` at local arc lengths ``sl`` (clipped to the segment),
@@ -234,10 +248,12 @@ class Path:
         return tuple(out)
 
 
-def piecewise_uniform(bounds: np.ndarray, spacing: float) -> np.ndarray:
+def piecewise_uniform(bounds: np.ndarray, spacing: float | np.ndarray) -> np.ndarray:
     """Arc lengths from ``bounds[0]`` to ``bounds[-1]`` including every bound exactly, each
-    stretch between consecutive (increasing) bounds in ceil(stretch / spacing) equal steps."""
-    bounds = np.unique(bounds)
+    stretch between consecutive (increasing) bounds in ceil(stretch / spacing) equal steps
+    (``spacing`` one for all or one per stretch)."""
+    if np.ndim(spacing) == 0:
+        bounds = np.unique(bounds)
     width = np.diff(bounds)
     steps = np.maximum(np.ceil(width / spacing - 1e-9).astype(np.int64), 1)
     first = np.concatenate([[0], np.cumsum(steps)[:-1]])

@@ -71,6 +71,8 @@ from feedopt.geometry.junctions import (
     stretch_path,
     trimmed_pieces,
 )
+from feedopt.geometry.orientation import blend_orientation
+from feedopt.geometry.orientation_knots import program_knots
 from feedopt.geometry.path import COLLINEAR_TOL, Path
 from feedopt.geometry.program_pieces import (
     SPLINE,
@@ -151,10 +153,26 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
     path = Path(built.path.segments, moves=moves)
     path.stops = stops
     path.tool_headers = tuple(program.tool_headers)
+    axis_notes = _orient(path, linked, program_move, opts) if program.five_axis else []
     chains = tuple(p.chain for p in pieces if p.chain is not None)
     return ProgramPath(path, moves, report, chains,
                        tuple(_notes(link_notes, corner_notes, chains, opts, g64_p, stops,
-                                    built.path.length)), stops)
+                                    built.path.length) + axis_notes), stops)
+
+
+def _orient(path: Path, linked: Program, program_move: np.ndarray,
+            opts: ProgramPathOptions) -> list[str]:
+    """Give a five-axis program's path its G2 orientation (``path.orientation``) within the
+    angle tolerance; the notes say what was done."""
+    knots, notes = program_knots(linked, path.moves.s_start, program_move, path.stop_s,
+                                 path.length)
+    path.orientation = blend_orientation(knots, opts.orientation_tolerance)
+    dev = path.orientation.deviation()
+    blended = int(np.count_nonzero(path.orientation.half_window))
+    notes.append(f"tool vectors: {knots.s.size} on the path, {blended} turn(s) of their "
+                 f"great circles blended G2 within {math.degrees(opts.orientation_tolerance):g}"
+                 f" deg (largest {math.degrees(dev.max(initial=0.0)):.3g} deg)")
+    return notes
 
 
 def _notes(link_notes, corner_notes, chains, opts: ProgramPathOptions, g64_p: np.ndarray,

@@ -35,6 +35,8 @@ class ProgramPathOptions:
     stock_top : height of the stock's top face in the program frame [m]: a plunge ending
         below it gets the cutting tolerance, an air link (or the first approach) below it is
         refused; None: plunges count as air moves and links are not checked
+    orientation_tolerance : five-axis programs: largest angle between the smoothed tool
+        vector and the programmed one [rad] (:mod:`feedopt.geometry.orientation`)
     """
 
     tolerance: float = 0.01 * MM
@@ -45,6 +47,7 @@ class ProgramPathOptions:
     chain_max_turn: float = math.radians(15.0)
     chain_min_moves: int = 4
     stock_top: float | None = 0.0
+    orientation_tolerance: float = math.radians(0.2)
 
 
 @dataclass

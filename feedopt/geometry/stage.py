@@ -17,8 +17,16 @@ from typing import Any
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.gcode import read_gcode
-from feedopt.geometry.path import Path, PathPoints, build_lipb_path, check_sample_count
+from feedopt.gcode import read_apt, read_gcode
+from feedopt.geometry.orientation import blend_orientation
+from feedopt.geometry.orientation_knots import waypoint_knots
+from feedopt.geometry.path import (
+    MAX_SAMPLES,
+    Path,
+    PathPoints,
+    build_lipb_path,
+    check_sample_count,
+)
 from feedopt.geometry.program_path import (
     ProgramPath,
     ProgramPathOptions,
@@ -26,7 +34,7 @@ from feedopt.geometry.program_path import (
     segment_labels,
 )
 from feedopt.geometry.waves import square_wave, straight_line, triangle_wave
-from feedopt.geometry.waypoints import read_waypoints_csv
+from feedopt.geometry.waypoints import read_tool_vectors_csv, read_waypoints_csv
 from feedopt.units import MM
 
 #: what the refusal of repeated waypoints suggests in a scenario
@@ -75,7 +83,8 @@ def program_options(section: Any, stock_top: bool = True) -> ProgramPathOptions:
         blend=section.blend, blend_size=section.blend_size_mm * MM,
         chain_max_move=section.chain_max_move_mm * MM,
         chain_max_turn=math.radians(section.chain_max_turn_deg),
-        stock_top=section.stock_top_mm * MM if stock_top else None)
+        stock_top=section.stock_top_mm * MM if stock_top else None,
+        orientation_tolerance=math.radians(section.orientation_tolerance_deg))
 
 
 def check_tools(program, tool_number: int | None) -> None:
@@ -100,9 +109,13 @@ def program_from_section(section: Any, base_dir: FilePath,
                          resolve: Resolver = resolve_file, stock_top: bool = True
                          ) -> ProgramPath:
     """The smoothed path of the section's G-code program, with its provenance and report."""
-    file = resolve(base_dir, section.file, "path.file (G-code program)")
-    program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm,
-                         dwell_p_units=section.dwell_p_units)
+    if section.generator == "apt":
+        file = resolve(base_dir, section.file, "path.file (APT CL file)")
+        program = read_apt(file, arc_tolerance_mm=section.arc_tolerance_mm)
+    else:
+        file = resolve(base_dir, section.file, "path.file (G-code program)")
+        program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm,
+                             dwell_p_units=section.dwell_p_units)
     check_tools(program, section.tool_number)
     result = program_path(program, program_options(section, stock_top))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
@@ -120,23 +133,52 @@ def path_from_section(section: Any, base_dir: FilePath, *,
     dropped. A ``gcode`` section gives the program's path (:func:`program_from_section`),
     whose ``moves`` say where every programmed move lies and ``notes`` what the reader and
     the smoothing recorded."""
-    if section.generator == "gcode":
+    if section.generator in ("gcode", "apt"):
         return program_from_section(section, base_dir, resolve, stock_top).path
+    vectors, name = None, ""
     try:
-        return build_lipb_path(waypoints_from_section(section, base_dir, resolve),
-                               section.blend, section.blend_size_mm * MM,
+        if section.generator == "csv":  # resolved once: its tool vectors are read from it too
+            file = resolve(base_dir, section.file, "path.file (waypoint CSV)")
+            waypoints, vectors, name = read_waypoints_csv(file), read_tool_vectors_csv(file), \
+                file.name
+        else:
+            waypoints = waypoints_from_section(section, base_dir, resolve)
+        path = build_lipb_path(waypoints, section.blend, section.blend_size_mm * MM,
                                drop_repeated=section.drop_repeated_waypoints,
                                repeat_hint=SCENARIO_REPEAT_HINT)
     except InputError as exc:
         raise InputError(f"path ({section.generator}, blend {section.blend} "
                          f"{section.blend_size_mm:g} mm): {exc}") from None
+    if vectors is not None:
+        _orient_waypoints(path, waypoints, vectors, name,
+                          math.radians(section.orientation_tolerance_deg))
+    return path
+
+
+def _orient_waypoints(path: Path, waypoints: np.ndarray, vectors: np.ndarray, name: str,
+                      tolerance: float) -> None:
+    """Give a five-axis waypoint path its G2 orientation within ``tolerance`` [rad]."""
+    kept = np.delete(np.arange(len(waypoints)), list(path.dropped_waypoints))
+    knots = waypoint_knots(path, waypoints[kept], vectors[kept], name)
+    path.orientation = blend_orientation(knots, tolerance)
+    dev = path.orientation.deviation().max(initial=0.0)
+    path.notes = (*path.notes, f"{name}: tool vectors at {kept.size} waypoints, their great "
+                  f"circles blended G2 within {math.degrees(tolerance):g} deg (largest "
+                  f"{math.degrees(dev):.3g} deg)")
 
 
 def sample_path(path: Path, spacing: float) -> PathPoints:
-    """The path sampled every ``spacing`` [m] of arc length, after refusing a sample count
-    past the cap (named as ``path.spacing_mm``)."""
+    """The path sampled every ``spacing`` [m] of arc length (more finely where a five-axis
+    path's tool vector turns fast), after refusing a sample count past the cap (named as
+    ``path.spacing_mm``)."""
     check_sample_count(path.length, spacing, "path.spacing_mm")
-    return path.sample(spacing)
+    samples = path.sample(spacing)
+    if samples.s.size > MAX_SAMPLES:
+        raise InputError(f"path.spacing_mm = {spacing / MM:g} mm: the tool vector turns so fast "
+                         f"that sampling it finely enough gives {samples.s.size:.3g} samples; at"
+                         f" most {MAX_SAMPLES:.0e} are planned (a coarser spacing or a path "
+                         "whose tool turns less)")
+    return samples
 
 
 def segment_names(path: Path) -> list[str]:

@@ -37,19 +37,25 @@ def check_path_radius(points: PathPoints, segment_names: list[str], tool_radius:
     segment_names : a readable name per segment
     tool_radius : cutter radius R [m]
     cutting : (n,) samples where the tool cuts (default: all); the others are not checked
-    tool_axis : (3,) tool axis: then the radius is that of the path projected on the plane
-        across the axis, |T_h x K_h| / |T_h|^3 (T_h, K_h the projected tangent and curvature
-        vector), the turn the cutter sees; a path bending up out of the cut (a retract) does
-        not turn there.
+    tool_axis : (3,) tool axis, or (n, 3) one per sample: then the radius is that of the
+        path projected on the plane across the axis, |T_h x K_h| / |T_h|^3 (T_h, K_h the
+        projected tangent and curvature vector), the turn the cutter sees; a path bending up
+        out of the cut (a retract) does not turn there.
     refuse : False (a G-code program, whose sharp corners are the programmer's): warn below
         R/2 as well instead of refusing
     """
     s, segment, tangent = points.s, points.segment, points.tangent
     curvature = np.asarray(points.curvature, dtype=float)
-    if tool_axis is not None:
+    if tool_axis is not None and np.ndim(tool_axis) == 2:  # a five-axis path's, per sample
+        axis = np.asarray(tool_axis, dtype=float)
+        axis = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+        th = tangent - np.einsum("ij,ij->i", tangent, axis)[:, None] * axis
+        kh = curvature - np.einsum("ij,ij->i", curvature, axis)[:, None] * axis
+    elif tool_axis is not None:
         axis = np.asarray(tool_axis, dtype=float) / np.linalg.norm(tool_axis)
         th = tangent - np.outer(tangent @ axis, axis)
         kh = curvature - np.outer(curvature @ axis, axis)
+    if tool_axis is not None:
         speed = np.linalg.norm(th, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             kappa = np.where(speed > 1e-6,

@@ -171,6 +171,31 @@ def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients
     return engagement.with_plunge(None), mask, [warning]
 
 
+#: a five-axis path whose feed leaves the plane across the tool axis by more than this [deg]
+#: on a cutting sample gets a note (the force model takes the feed across the axis)
+INCLINED_FEED_DEG = 5.0
+
+
+def inclined_feed_notes(samples, cutting: np.ndarray) -> list[str]:
+    """A note when a five-axis path feeds partly along the tool axis while cutting (a lead
+    or tilt against the path, a ramp): the model's chip is the feed's, across the axis, on the
+    side edges (at most 1 / cos of the angle too large: conservative), and the bottom edge's
+    chip from the axial part is not modelled."""
+    if samples.axis is None or not cutting.any():
+        return []
+    along = np.abs(np.einsum("ij,ij->i", samples.tangent, samples.axis))
+    angle = np.degrees(np.arcsin(np.clip(np.where(cutting, along, 0.0), 0.0, 1.0)))
+    k = int(np.argmax(angle))
+    if angle[k] <= INCLINED_FEED_DEG:
+        return []
+    return [f"the feed leans out of the plane across the tool axis by up to {angle[k]:.3g} deg "
+            f"while cutting ({int(np.count_nonzero(angle > INCLINED_FEED_DEG))} samples over "
+            f"{INCLINED_FEED_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): the force "
+            "model takes the whole feed across the axis on the side edges (up to "
+            f"{1 / np.cos(np.radians(angle[k])):.3g} x the chip there: conservative) and does "
+            "not model the bottom edge's chip from the part along the axis"]
+
+
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                        segment_names: list[str], moves=None) -> ProcessAlongPath:
     """Load the tool and material of ``scenario`` and state the engagement of every sample.
@@ -186,10 +211,18 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
         raise InputError(f"deflection.mode surface: the wall and floor error model is a flat "
                          f"end mill's; tool {scenario.tool} is a {tool.shape.value} cutter "
                          "(use mode norm, normal or direction)")
+    if scenario.deflection.mode == "surface" and samples.axis is not None:
+        raise InputError("deflection.mode surface: the wall and floor error model follows a "
+                         "tool along the workpiece's z; this path tilts the tool (its tool "
+                         "vectors): use mode norm, normal or direction")
     table = load_coefficients(resolve(scenario.material, "material file"))
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     material = None
     source = str(getattr(scenario.path, "file", None) or "the program")
+    if scenario.stock is not None and samples.axis is not None:
+        raise InputError("stock: the Z-map follows a tool along the workpiece's z; this path "
+                         "tilts the tool (its tool vectors): give the engagement with cut: "
+                         "instead")
     if scenario.stock is not None:
         material = engagement_from_stock(scenario.stock, resolve, tool, samples, moves,
                                          source=source)
@@ -203,7 +236,8 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
         engagement, coefficients, moves, samples, scenario.material, tool)
     warnings = check_path_radius(samples, segment_names, 0.5 * tool.diameter,
                                  cutting=engagement.exit > engagement.entry,
-                                 tool_axis=np.asarray(scenario.workpiece.tool_axis),
+                                 tool_axis=np.asarray(scenario.workpiece.tool_axis)
+                                 if samples.axis is None else samples.axis,
                                  refuse=moves is None)
     feeds = [("feed.nominal_mm_s", feed.nominal_mm_s * MM)]
     if feed.max_mm_s is not None:
@@ -212,6 +246,7 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     if material is not None:
         warnings += material.warnings
     warnings += plunge_notes
+    warnings += inclined_feed_notes(samples, engagement.exit > engagement.entry)
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))
         warnings.append(f"the stock reaches above the flutes of the tool at "

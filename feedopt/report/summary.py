@@ -146,7 +146,8 @@ def scenario_summary(prepared: Prepared) -> dict:
         "tcp_offset_mm": (robot.tcp_offset[:3, 3] / MM).tolist(),
         "workpiece_position_mm": list(sc.workpiece.position_mm),
         "workpiece_rpy_deg": list(sc.workpiece.rpy_deg),
-        "tool_axis": list(sc.workpiece.tool_axis),
+        "tool_axis": list(sc.workpiece.tool_axis) if prepared.path.orientation is None else None,
+        "orientation": orientation_summary(prepared),
         "nominal_feed_mm_s": sc.feed.nominal_mm_s,
         "max_feed_mm_s": (sc.feed.max_mm_s if sc.feed.max_mm_s is not None
                           else sc.feed.nominal_mm_s),
@@ -169,6 +170,33 @@ def scenario_summary(prepared: Prepared) -> dict:
         "max_condition_number": float(np.max(prepared.ik.condition_number)),
         "stage_times_s": dict(prepared.stage_times),
     }
+
+
+def orientation_summary(prepared: Prepared) -> dict | None:
+    """A five-axis path's tool vectors in summary.json: how many, the angle tolerance and the
+    largest deviation of the blends, the tilt from the workpiece's z, the orientation limits;
+    None on three-axis paths."""
+    o = prepared.path.orientation
+    if o is None:
+        return None
+    sc, samples = prepared.scenario, prepared.samples
+    tilt = np.degrees(np.arccos(np.clip(samples.axis[:, 2], -1.0, 1.0)))
+    return {"tool_vectors": int(o.knots.s.size), "blended": int(np.count_nonzero(o.half_window)),
+            "tolerance_deg": sc.path.orientation_tolerance_deg,
+            "largest_deviation_deg": float(np.degrees(o.deviation().max(initial=0.0))),
+            "tilt_from_workpiece_z_deg": [float(tilt.min()), float(tilt.max())],
+            "rate_limit_deg_s": sc.limits.orientation_rate_deg_s,
+            "acceleration_limit_deg_s2": sc.limits.orientation_acceleration_deg_s2}
+
+
+def _orientation_replay(e) -> dict | None:
+    """The replay's largest orientation rate and acceleration of a law (five-axis paths)."""
+    if e is None:
+        return None
+    return {"max_rate_deg_s": float(np.degrees(e.rate)),
+            "max_acceleration_deg_s2": float(np.degrees(e.acceleration)),
+            "rate_ratio": _finite(e.rate_ratio),
+            "acceleration_ratio": _finite(e.acceleration_ratio)}
 
 
 def _json_ready(value: object) -> bool:
@@ -304,6 +332,7 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
         "c2": timing.c2,
         "joint_velocity_ratio": timing.joint_velocity_ratio,
         "joint_acceleration_ratio": timing.joint_acceleration_ratio,
+        "orientation": _orientation_replay(timing.orientation),
         "verified": ver.verified,
         "problems": list(ver.problems),
         "notes": list(ver.warnings),

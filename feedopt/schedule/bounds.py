@@ -33,6 +33,7 @@ from feedopt.schedule.deflection import (
     GridExtreme,
     counting,
 )
+from feedopt.schedule.orientation_limits import OrientationLimit
 from feedopt.schedule.roots import (
     upper_roots_norm,
     upper_roots_projected,
@@ -61,6 +62,14 @@ class BoundInputs:
     compensation_cap: float = np.inf  # largest compensated offset (residual mode) [m]
     wall_limit: float = np.inf  # part tolerances (deflection.mode surface) [m]
     floor_limit: float = np.inf
+    # five-axis paths: per sample the largest |du/ds| [1/m] and |d2u/ds2| [1/m^2] of the tool
+    # vector nearby (None: three-axis), the orientation limits [rad/s, rad/s^2] and the
+    # tangential acceleration limit [m/s^2] (schedule/orientation_limits.py)
+    axis_rate: np.ndarray | None = None
+    axis_curvature: np.ndarray | None = None
+    orientation_rate_max: float = np.inf
+    orientation_acceleration_max: float = np.inf
+    accel_max: float = np.inf
     cache: dict = field(default_factory=dict)
     progress: Callable[[int, int], None] | None = None  # (samples done, samples): a bar
 
@@ -363,6 +372,7 @@ def _compensation_cap() -> FeedConstraint:
 register_constraint("compensation_cap", _compensation_cap)
 register_constraint("wall_error", wall_error_constraint)
 register_constraint("floor_error", floor_error_constraint)
+register_constraint(OrientationLimit.name, OrientationLimit)
 
 
 def feed_bound(inputs: BoundInputs,

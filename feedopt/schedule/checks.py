@@ -29,6 +29,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.schedule.joints import DenseJoints, dense_joint_extrema
+from feedopt.schedule.orientation_limits import OrientationExtrema, dense_orientation_extrema
 from feedopt.schedule.polynomial import horner, sample_piece_chunks, sample_pieces
 from feedopt.schedule.problem import ScheduleProblem
 from feedopt.schedule.trajectory import Trajectory
@@ -63,6 +64,8 @@ class Violation(enum.Flag):
     C2 = enum.auto()  #: claims C2 but the acceleration jumps
     JOINT_VELOCITY = enum.auto()
     JOINT_ACCELERATION = enum.auto()
+    ORIENTATION_RATE = enum.auto()  #: the tool vector turns faster than its limit
+    ORIENTATION_ACCELERATION = enum.auto()
     START_FEED = enum.auto()  #: the feed at t = 0 is not v_start
     END_FEED = enum.auto()  #: the feed at the end is not v_end
     LENGTH = enum.auto()  #: s(t) does not cover the path
@@ -186,6 +189,8 @@ class TimingCheck:
     stop_ramp: Ramp = field(default_factory=Ramp.nan)
     problems: tuple[str, ...] = field(default_factory=tuple)
     violations: Violation = Violation.NONE
+    #: five-axis paths: the replay's largest orientation rate and acceleration (None else)
+    orientation: OrientationExtrema | None = None
 
     @property
     def ok(self) -> bool:
@@ -385,6 +390,8 @@ def check_timing(
     # joint velocity and acceleration of q(s(t)) between the samples too (dense replay)
     joints = dense_joint_extrema(trajectory, problem, t_samples)
     findings += _joint_findings(joints, problem, rtol)
+    orientation = dense_orientation_extrema(trajectory, problem, t_samples)
+    findings += _orientation_findings(orientation, rtol)
     start, end, found = _boundary_findings(trajectory, problem, rtol)
     findings += found
     start_ramp, stop_ramp, cutting = find_ramps(trajectory, problem,
@@ -406,6 +413,7 @@ def check_timing(
         c2=c2,
         joint_velocity_ratio=joints.velocity.ratio,
         joint_acceleration_ratio=joints.acceleration.ratio,
+        orientation=orientation,
         start_feed=start,
         end_feed=end,
         start_ramp=start_ramp,
@@ -488,6 +496,23 @@ def _joint_findings(joints: DenseJoints, problem: ScheduleProblem, rtol: float
                         f"joint {e.joint + 1} {what} {np.rad2deg(abs(e.value)):.4g} {unit} "
                         f"exceeds its limit {np.rad2deg(limits[e.joint]):.4g} {unit} "
                         f"({e.ratio:.4f} x) at s = {e.s / MM:.3f} mm ({e.where})"))
+    return out
+
+
+def _orientation_findings(e: OrientationExtrema | None, rtol: float) -> list[Finding]:
+    """The tool vector's rate and acceleration over their limits (five-axis paths)."""
+    out: list[Finding] = []
+    if e is None:
+        return out
+    for kind, what, unit, value, ratio, s in (
+        (Violation.ORIENTATION_RATE, "rate", "deg/s", e.rate, e.rate_ratio, e.rate_s),
+        (Violation.ORIENTATION_ACCELERATION, "acceleration", "deg/s^2", e.acceleration,
+         e.acceleration_ratio, e.acceleration_s),
+    ):
+        if ratio > 1 + rtol:
+            out.append((kind, f"tool orientation {what} {np.rad2deg(value):.4g} {unit} exceeds "
+                              f"its limit {np.rad2deg(value / ratio):.4g} {unit} ({ratio:.4f} x)"
+                              f" at s = {s / MM:.3f} mm"))
     return out
 
 

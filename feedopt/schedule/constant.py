@@ -171,6 +171,29 @@ def _check_robot_can_cruise(problem: ScheduleProblem, v: float) -> None:
                 f"(sample {k}). The baseline ignores the deflection limit by design, not the "
                 f"robot's joint limits: a feed of at most "
                 f"{v / ratio[k, j] ** (1.0 / power) / MM:.4g} mm/s runs (feed.nominal_mm_s)")
+    _check_orientation_can_cruise(problem, v)
+
+
+def _check_orientation_can_cruise(problem: ScheduleProblem, v: float) -> None:
+    """Decline when the tool vector of a five-axis path would turn faster than its limits at
+    the constant feed ``v`` (rate |u'| v; acceleration |u''| v^2 + |u'| a_max, the ramps'
+    tangential acceleration included), with the peaks around each sample."""
+    if problem.orientation is None:
+        return
+    rate, curvature = problem.orientation.peaks(problem.s)
+    for what, need, limit, unit in (
+        ("rate", rate * v, problem.orientation_rate_max, "deg/s"),
+        ("acceleration", curvature * v * v + rate * problem.accel_max,
+         problem.orientation_acceleration_max, "deg/s^2"),
+    ):
+        k = int(np.argmax(need))
+        if need[k] > limit * (1 + 1e-9):
+            raise LawNotApplicable(
+                f"constant law: at the nominal feed {v / MM:.4g} mm/s the tool axis would turn "
+                f"at {np.rad2deg(need[k]):.4g} {unit}, {need[k] / limit:.3g} x the orientation "
+                f"{what} limit {np.rad2deg(limit):.4g} {unit} (limits.orientation_{what}_"
+                f"{'deg_s' if what == 'rate' else 'deg_s2'}), at s = {problem.s[k] / MM:.3f} mm"
+                f" (sample {k}); the baseline ignores the deflection limit, not the tool's")
 
 
 def plan_constant(problem: ScheduleProblem, options: ConstantOptions | None = None) -> Trajectory:

@@ -77,6 +77,12 @@ class ScheduleProblem:
         Samples where the trajectory must stop (and hold); None: it stops only at the ends.
         :func:`feedopt.schedule.laws.plan_law` plans such a problem piece by piece between
         the stops (:mod:`feedopt.schedule.stops`).
+    orientation : the tool vector u(s) of a five-axis path (anything with ``evaluate(s)``
+        giving ``d1``, ``d2``: :class:`feedopt.geometry.orientation.ToolOrientation`); None
+        on three-axis paths. The replay checks its rate and acceleration against
+    orientation_rate_max, orientation_acceleration_max : float
+        [rad/s, rad/s^2] (``inf``: none); the feed bound keeps them
+        (:mod:`feedopt.schedule.orientation_limits`).
     """
 
     s: np.ndarray
@@ -96,6 +102,9 @@ class ScheduleProblem:
     key_point_spacing: float = 0.0
     programmed_feed: np.ndarray | None = None
     stops: StopSamples | None = None
+    orientation: object | None = None
+    orientation_rate_max: float = np.inf
+    orientation_acceleration_max: float = np.inf
 
     @cached_property
     def joint_screen(self) -> JointScreen:

@@ -170,6 +170,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         compensation_cap=(np.inf if defl.compensation_cap_mm is None
                           else defl.compensation_cap_mm * MM),
         wall_limit=wall_limit, floor_limit=floor_limit,
+        **orientation_inputs(path, samples, limits),
         progress=progress,
     ))
     problem = ScheduleProblem(
@@ -191,12 +192,31 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         programmed_feed=(None if programmed is None else np.minimum(
             programmed, bound.parts.get("joint_velocity", np.inf))),
         stops=stop_samples(path.stops, samples.s),
+        orientation=path.orientation,
+        orientation_rate_max=_rad(limits.orientation_rate_deg_s),
+        orientation_acceleration_max=_rad(limits.orientation_acceleration_deg_s2),
     )
     # Once, before any law, naming the scenario's fields (every law repeats it for itself).
     check_boundary_feeds("run", problem, rtol=1e-9, names=("feed.start_mm_s", "feed.end_mm_s"),
                          who="feed")
     return ScheduleInputs(model=model, bound=bound, problem=problem, limit=limit,
                           wall_limit=wall_limit, floor_limit=floor_limit)
+
+
+def _rad(deg: float | None) -> float:
+    return np.inf if deg is None else float(np.radians(deg))
+
+
+def orientation_inputs(path, samples, limits) -> dict:
+    """The feed bound's inputs of the orientation limits (``BoundInputs``): the tool
+    vector's largest rates near each sample on a five-axis path, the limits in SI."""
+    if path.orientation is None:
+        return {}
+    rate, curvature = path.orientation.peaks(samples.s)
+    return {"axis_rate": rate, "axis_curvature": curvature,
+            "orientation_rate_max": _rad(limits.orientation_rate_deg_s),
+            "orientation_acceleration_max": _rad(limits.orientation_acceleration_deg_s2),
+            "accel_max": limits.tangential_acceleration_mm_s2 * MM}
 
 
 def bounds_line(schedule: ScheduleInputs, moves, s: np.ndarray, seconds: float) -> str:

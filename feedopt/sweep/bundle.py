@@ -111,7 +111,7 @@ def build_bundle(scenario_path: str | Path) -> tuple[Bundle, Scenario]:
     origins = [(ROBOT_DIR, str(robot_dir))]
     named = [(("tool",), scenario.tool, "tool file"),
              (("material",), scenario.material, "material file")]
-    if scenario.path.generator in ("csv", "gcode"):
+    if scenario.path.generator in ("csv", "gcode", "apt"):
         named.append((("path", "file"), scenario.path.file, "path.file"))
     if scenario.stock is not None and scenario.stock.mesh is not None:
         named.append((("stock", "mesh"), scenario.stock.mesh, "stock.mesh"))

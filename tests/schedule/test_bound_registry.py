@@ -15,7 +15,7 @@ quiet = lambda _m: None  # noqa: E731
 def test_builtin_constraints_in_record_order() -> None:
     assert list(CONSTRAINTS) == ["deflection", "max_feed", "spindle_torque", "spindle_power",
                                  "joint_velocity", "compensation_cap", "wall_error",
-                                 "floor_error"]
+                                 "floor_error", "orientation"]
     for name, factory in CONSTRAINTS.items():
         assert factory().name == name
     with pytest.raises(ValueError, match="already registered"):
