@@ -4,6 +4,8 @@ sample it, report its continuity (and, for a program, the deviation at every jun
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path as PathlibPath
 
 import numpy as np
 
@@ -13,7 +15,8 @@ from feedopt.geometry import waves
 from feedopt.geometry.continuity import continuity_report
 from feedopt.geometry.path import Path, build_lipb_path, check_sample_count
 from feedopt.geometry.registry import NO_BLEND, blend_names, get_blend, size_parameters
-from feedopt.geometry.waypoints import read_waypoints_csv
+from feedopt.geometry.stage import orient_waypoints
+from feedopt.geometry.waypoints import read_tool_vectors_csv, read_waypoints_csv
 from feedopt.outfile import Writer, check_data_and_plot, write_files_atomically
 from feedopt.units import MM, MM_PER_M
 
@@ -21,8 +24,12 @@ BUILTIN = {"builtin:triangle": waves.triangle_wave, "builtin:square": waves.squa
            "builtin:line": waves.straight_line}
 HEADER = "s_mm,x_mm,y_mm,z_mm,tx,ty,tz,kx_1_mm,ky_1_mm,kz_1_mm"
 PROGRAM_HEADER = HEADER + ",line,n,move,nominal_feed_mm_s"
+#: the tool vector's columns of a five-axis path's samples (a waypoint CSV reads them back)
+AXIS_COLUMNS = ",i,j,k"
 #: file suffixes read as G-code programs (CAM post-processor outputs)
 PROGRAM_SUFFIXES = (".nc", ".ngc", ".tap", ".gcode", ".cnc", ".mpf", ".eia", ".iso")
+#: APT CL files (five-axis tool paths: GOTO/x,y,z,i,j,k), read like programs
+APT_SUFFIXES = (".cls", ".apt", ".aptsource", ".cl")
 DEFAULT_PROGRAM_BLEND_SIZE_MM = 12.7
 DEFAULT_BLEND = "varying_radius"
 REPEAT_HINT = "pass --drop-repeated"
@@ -30,7 +37,7 @@ REPEAT_HINT = "pass --drop-repeated"
 _FIXED_OPTIONS = ("--help", "--blend", "--spacing", "--out", "--plot", "--drop-repeated",
                   "--max-rows", "--tolerance-mm", "--air-tolerance-mm", "--stock-top",
                   "--arc-tolerance", "--tool", "--stock-box", "--stock-from-program",
-                  "--stock-cell")
+                  "--stock-cell", "--orientation-tolerance")
 
 
 def _option(size_name: str) -> str:
@@ -50,9 +57,10 @@ def add_parser(subparsers) -> None:
             "Linear interpolation with a blend at every corner (thesis 3.3). Writes the path "
             "sampled by arc length and prints the G0/G1/G2 jump at every junction."),
     )
-    p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm, one of "
-                   + ", ".join(BUILTIN) + " (thesis test paths), or a G-code program ("
-                   + ", ".join(PROGRAM_SUFFIXES) + ")")
+    p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm (and i,j,k tool "
+                   "vectors), one of " + ", ".join(BUILTIN) + " (thesis test paths), a G-code "
+                   "program (" + ", ".join(PROGRAM_SUFFIXES) + ") or an APT CL file ("
+                   + ", ".join(APT_SUFFIXES) + "); a five-axis path's samples carry i,j,k")
     p.add_argument("--blend", choices=blend_names(), default=DEFAULT_BLEND,
                    help=f"corner blend (default: {DEFAULT_BLEND})")
     # one size option per size parameter of the registered blend kinds (--radius, ...)
@@ -80,6 +88,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--arc-tolerance", type=float, default=0.002, metavar="MM",
                    help="program: largest start/end radius difference of an arc (default "
                    "0.002)")
+    p.add_argument("--orientation-tolerance", type=float, default=0.2, metavar="DEG",
+                   help="five-axis paths (tool vectors): largest angle between the smoothed and "
+                   "the programmed tool vector (default 0.2, as path.orientation_tolerance_deg)")
     path_stock.add_arguments(p)
     p.add_argument("--max-rows", type=int, default=40,
                    help="junction rows (and smoothed chains) printed (head and tail; default "
@@ -122,9 +133,17 @@ def _size(args: argparse.Namespace) -> float:
     return _positive_mm(given[kind.size.name], own, "12.7")
 
 
+def _orientation_tolerance(args: argparse.Namespace) -> float:
+    """--orientation-tolerance [deg], checked as path.orientation_tolerance_deg is."""
+    value = args.orientation_tolerance
+    if not (np.isfinite(value) and 0.0 < value <= 10.0):
+        raise InputError(f"--orientation-tolerance must be in (0, 10] deg, got {value:g}")
+    return float(value)
+
+
 def is_program(name: str) -> bool:
-    """True for a file name with a G-code suffix."""
-    return name.lower().endswith(PROGRAM_SUFFIXES)
+    """True for a file name with a G-code or APT CL suffix."""
+    return name.lower().endswith(PROGRAM_SUFFIXES + APT_SUFFIXES)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -139,6 +158,10 @@ def run(args: argparse.Namespace) -> int:
         args.waypoints)
     path = build_lipb_path(w, args.blend, size, drop_repeated=args.drop_repeated,
                            repeat_hint=REPEAT_HINT)
+    vectors = None if args.waypoints in BUILTIN else read_tool_vectors_csv(args.waypoints)
+    if vectors is not None:
+        orient_waypoints(path, w, vectors, PathlibPath(args.waypoints).name,
+                         math.radians(_orientation_tolerance(args)))
     check_sample_count(path.length, spacing, "--spacing")
     _print_summary(args, path, len(w), size)
     _write_outputs(args, path, spacing, w)
@@ -146,8 +169,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_program(args: argparse.Namespace) -> int:
-    """``feedopt path PROGRAM.nc``: the program's G2 path within the tolerances."""
-    from feedopt.gcode import read_gcode
+    """``feedopt path PROGRAM.nc`` (or an APT CL file): the program's G2 path within the
+    tolerances."""
+    from feedopt.gcode import read_apt, read_gcode
     from feedopt.geometry.program_path import ProgramPathOptions, program_path
 
     given = any(getattr(args, _dest(name), None) is not None for name in size_parameters())
@@ -156,16 +180,19 @@ def _run_program(args: argparse.Namespace) -> int:
     tol = _positive_mm(args.tolerance_mm, "--tolerance-mm", "0.01")
     air = _positive_mm(args.air_tolerance_mm, "--air-tolerance-mm", "0.5")
     arc_tol = _positive_mm(args.arc_tolerance, "--arc-tolerance", "0.002")
+    _orientation_tolerance(args)
     if not np.isfinite(args.stock_top):
         raise InputError(f"--stock-top must be a finite number of mm, got {args.stock_top}")
     if args.max_rows < 0:
         raise InputError(f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}")
     stock = path_stock.check_stock_args(args)
     check_data_and_plot(args.out, args.plot, [args.waypoints], "path.csv", "path.png")
-    program = read_gcode(args.waypoints, arc_tolerance_mm=arc_tol / MM)
+    reader = read_apt if args.waypoints.lower().endswith(APT_SUFFIXES) else read_gcode
+    program = reader(args.waypoints, arc_tolerance_mm=arc_tol / MM)
     result = program_path(program, ProgramPathOptions(
         tolerance=tol, air_tolerance=air, blend=args.blend, blend_size=size,
-        stock_top=args.stock_top * MM))
+        stock_top=args.stock_top * MM,
+        orientation_tolerance=math.radians(_orientation_tolerance(args))))
     path = result.path
     check_sample_count(path.length, spacing, "--spacing")  # the limit of feedopt run
     kinds = path.segment_kind
@@ -207,6 +234,7 @@ def _check_args(args: argparse.Namespace) -> tuple[float, float]:
     """Blend size and spacing [m]; every option checked before anything is read or built."""
     size = _size(args)
     spacing = _positive_mm(args.spacing, "--spacing", "0.1")
+    _orientation_tolerance(args)
     if args.max_rows < 0:
         raise InputError(
             f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}"
@@ -257,7 +285,8 @@ def _write_program_csv(out, data: np.ndarray, path: Path, s: np.ndarray) -> None
     for c in cols[1:]:
         rows = np.char.add(np.char.add(rows, ","), c)
     with open(out, "w", encoding="utf-8") as fh:
-        fh.write(PROGRAM_HEADER + "\n")
+        fh.write(PROGRAM_HEADER.replace(",line,", (AXIS_COLUMNS if path.orientation is not None
+                                                   else "") + ",line,") + "\n")
         fh.write("\n".join(rows.tolist()))
         fh.write("\n")
 
@@ -270,10 +299,12 @@ def _write_outputs(args: argparse.Namespace, path: Path, spacing: float, w: np.n
     if args.out is not None:
         pts = path.sample(spacing)
         data = np.column_stack([pts.s * MM_PER_M, pts.position * MM_PER_M, pts.tangent,
-                                pts.curvature * MM])  # curvature 1/m -> 1/mm
+                                pts.curvature * MM]  # curvature 1/m -> 1/mm
+                               + ([] if pts.axis is None else [pts.axis]))
         if path.moves is None:
+            header = HEADER + ("" if pts.axis is None else AXIS_COLUMNS)
             files.append((args.out, lambda tmp: np.savetxt(
-                tmp, data, delimiter=",", header=HEADER, comments="", fmt="%.12g"), "--out"))
+                tmp, data, delimiter=",", header=header, comments="", fmt="%.12g"), "--out"))
         else:
             files.append((args.out, lambda tmp: _write_program_csv(tmp, data, path, pts.s),
                           "--out"))

@@ -150,12 +150,12 @@ def path_from_section(section: Any, base_dir: FilePath, *,
         raise InputError(f"path ({section.generator}, blend {section.blend} "
                          f"{section.blend_size_mm:g} mm): {exc}") from None
     if vectors is not None:
-        _orient_waypoints(path, waypoints, vectors, name,
+        orient_waypoints(path, waypoints, vectors, name,
                           math.radians(section.orientation_tolerance_deg))
     return path
 
 
-def _orient_waypoints(path: Path, waypoints: np.ndarray, vectors: np.ndarray, name: str,
+def orient_waypoints(path: Path, waypoints: np.ndarray, vectors: np.ndarray, name: str,
                       tolerance: float) -> None:
     """Give a five-axis waypoint path its G2 orientation within ``tolerance`` [rad]."""
     kept = np.delete(np.arange(len(waypoints)), list(path.dropped_waypoints))

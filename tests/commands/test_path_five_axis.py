@@ -1,0 +1,43 @@
+"""`feedopt path` on five-axis inputs: an APT CL file and a waypoint CSV with tool vectors give
+samples with i, j, k columns, which read back as a five-axis waypoint file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from feedopt.cli import main
+from feedopt.geometry.waypoints import read_tool_vectors_csv
+from tests.conftest import ROOT
+
+
+def _table(path):
+    header = path.read_text().splitlines()[0].split(",")
+    rows = np.genfromtxt(path, delimiter=",", skip_header=1, dtype=str)
+    return header, rows
+
+
+def test_apt_file_samples_carry_unit_tool_vectors(tmp_path, capsys):
+    out = tmp_path / "swarf.csv"
+    assert main(["path", str(ROOT / "scenarios/five_axis/swarf_wall.cls"), "--out",
+                 str(out)]) == 0
+    assert "tool vectors: 100 on the path" in capsys.readouterr().out
+    header, rows = _table(out)
+    ijk = rows[:, [header.index(c) for c in "ijk"]].astype(float)
+    assert np.allclose(np.linalg.norm(ijk, axis=1), 1.0, atol=1e-9)
+    tilt = np.degrees(np.arccos(ijk[:, 2]))
+    assert tilt.max() == pytest.approx(20.0, abs=0.05)
+
+
+def test_csv_vectors_round_trip(tmp_path):
+    out = tmp_path / "tilted.csv"
+    assert main(["path", str(ROOT / "scenarios/waypoints/five_axis_tilted.csv"),
+                 "--radius", "12.7", "--out", str(out)]) == 0
+    vectors = read_tool_vectors_csv(out)
+    assert vectors is not None and vectors.shape[1] == 3
+    assert np.degrees(np.arccos(vectors[:, 2])).max() > 10.0
+
+
+def test_bad_orientation_tolerance_is_refused_before_reading(tmp_path, capsys):
+    assert main(["path", str(tmp_path / "missing.cls"), "--orientation-tolerance", "nan"]) == 2
+    assert "--orientation-tolerance must be in (0, 10] deg" in capsys.readouterr().err
