@@ -5,6 +5,11 @@ belongs to a group (RS-274/NGC's modal groups, with the non-modal G4/G28 and G9/
 two codes of one group in a block are refused, except G80 with a motion code (the Fanuc and
 Haas safety line ``G00 G17 G21 G40 G49 G80 G90``: G80 cancels canned cycles, the motion code
 wins).
+
+Five-axis words: G43.5 (tool length group) switches tool-vector programming on, Sinumerik's
+``TRAORI``/``TRAFOOF`` keywords too (``ORIWKS``, ``ORIVECT`` are read and have no effect);
+``A3=``, ``B3=``, ``C3=`` are Sinumerik's tool-vector words (the lexer names them ``A3``, ``B3``,
+``C3``). Rotary axis words A, B, C stay refused: their positions need the machine's kinematics.
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ MOTION = {0: MoveKind.RAPID, 10: MoveKind.LINE, 20: MoveKind.ARC, 30: MoveKind.A
 PLANES = {170: Plane.XY, 180: Plane.ZX, 190: Plane.YZ}
 G80 = 800
 G4, G9, G28, G64 = 40, 90, 280, 640
+#: G43 and G43.5 (tool centre point control type 2: tool vectors I J K)
+G43, G43_5 = 430, 435
 GROUPS: dict[int, str] = {
     **{c: "motion" for c in (0, 10, 20, 30, G80)},
     170: "plane", 180: "plane", 190: "plane",
@@ -27,7 +34,7 @@ GROUPS: dict[int, str] = {
     900: "distance", 910: "distance",
     901: "arc distance", 911: "arc distance",
     940: "feed mode", 970: "spindle mode", 400: "cutter compensation",
-    430: "tool length", 490: "tool length",
+    430: "tool length", 435: "tool length", 490: "tool length",
     **{c: "work offset" for c in range(540, 600, 10)},
     610: "path control", 611: "path control", G64: "path control",
     980: "canned return", 990: "canned return",
@@ -52,19 +59,30 @@ REFUSED_G: dict[int, str] = {
     680: "coordinate rotation (G68) is not supported",
     510: "scaling (G51) is not supported",
     160: "polar coordinates (G16) is not supported",
+    434: "tool centre point control type 1 (G43.4) programs rotary axis positions (A B C), which "
+         "need the machine's kinematics: feedopt does not model them; post the program with tool "
+         "vectors (G43.5 with I J K, or an APT CL file with GOTO/x,y,z,i,j,k)",
 }
 SPINDLE_M = {3: 1, 4: -1, 5: 0}
 KNOWN_M = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 30}
 M_GROUPS = (("spindle", (3, 4, 5)), ("stop", (0, 1, 2, 30)), ("coolant", (7, 8, 9)),
             ("tool change", (6,)))
+_ROTARY = ("rotary and extra axes (A B C U V W) are not supported: rotary axis positions need "
+           "the machine's kinematics, which feedopt does not model; post the program with tool "
+           "vectors instead (G43.5 with I J K, Sinumerik TRAORI with A3= B3= C3=, or an APT CL "
+           "file with GOTO/x,y,z,i,j,k)")
 REFUSED_LETTERS = {
-    **{c: "rotary and extra axes (A B C U V W) are not supported: the reader is for 3-axis "
-          "programs" for c in "ABCUVW"},
+    **{c: _ROTARY for c in "ABC"},
+    **{c: "rotary and extra axes (A B C U V W) are not supported: U, V and W (extra linear "
+          "axes) are not read" for c in "UVW"},
     "D": "D words (cutter compensation register) are not supported",
     "L": "L words (repeats, subprograms) are not supported",
     "E": "E words are not supported",
 }
-HANDLED_LETTERS = set("GMXYZIJKRFSTHNOPQ")
+#: Sinumerik's tool-vector words and the five-axis keywords the lexer passes as words
+VECTOR_WORDS = ("A3", "B3", "C3")
+KEYWORDS = ("TRAORI", "TRAFOOF", "ORIWKS", "ORIVECT")
+HANDLED_LETTERS = {*"GMXYZIJKRFSTHNOPQ", *VECTOR_WORDS, *KEYWORDS}
 
 
 def gcode_key(word: Word) -> int | None:
@@ -150,6 +168,9 @@ def _check_p_q(gs: dict[str, tuple[int, Word]], vals: dict[str, Word],
         if not (dwell or blend):
             raise err(f"{vals['P'].text}: P words are only read with G4 (dwell) and G64 (path "
                       "tolerance); canned cycles, subprograms and arc turns are not supported")
+    if "Q" in vals and not blend and gs.get("tool length", (0,))[0] == G43_5:
+        raise err(f"{vals['Q'].text} with G43.5: the tool inclination angle (Q) is not "
+                  "supported: post the tool vectors with the inclination in them")
     if "Q" in vals and not blend:
         raise err(f"{vals['Q'].text}: Q words are only read with G64 (canned cycles are not "
                   "supported)")

@@ -17,18 +17,47 @@ where the tool is (on the named axes). Rapids from there are not in the move lis
 Arc radius check: the start and end radii may differ by ``max(arc_tolerance_mm, 2 sqrt(2) *
 resolution)``, the resolution being one unit of the last decimal the program writes its
 coordinates with (both points and the centre are rounded by half a unit).
+
+Tool vectors (five-axis). ``G43.5 H..`` (Fanuc tool centre point control type 2; G49 or G43
+ends it) and Sinumerik ``TRAORI`` (``TRAFOOF`` ends it) switch tool-vector programming on: X Y Z
+stay the tool tip, and a motion block's ``I J K`` (G43.5) or ``A3= B3= C3=`` (TRAORI) is the
+tool vector at its end point, from the tip into the spindle, in the program frame (Fanuc
+30i/15i and Sinumerik 840D manuals): a block with none keeps the last vector (modal), a block
+with some reads the missing components as 0 (Fanuc 15i note 3; Siemens: "vector components
+that have not been programmed are set to zero"), the vector is normalised, never scaled by G20
+nor made incremental by G91, and a zero vector is refused. Before any vector is given the tool
+is along +Z (noted). A move's ``axis_start`` is the vector before its block (its end vector for
+the first move of the program), ``axis_end`` the block's; a block that only turns the tool
+(no position, or a zero-length move) is not a move: the next move starts from the turned vector
+(noted). PLUNGE/RETRACT are feed lines along the move's end vector. G2/G3 are refused under
+G43.5 (its I J K are the vector; Fanuc's R-form tool-vector arcs are not read), read under
+TRAORI. Once a program uses G43.5 or TRAORI anywhere, every move carries vectors (+Z outside
+them, so the path is consistent); three-axis programs keep ``None``. Rotary axis words (A B C,
+G43.4) stay refused: their positions need the machine's kinematics.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
 from feedopt.errors import InputError
-from feedopt.gcode.codes import G4, G28, G64, G80, MOTION, PLANES, SPINDLE_M, sort_words
+from feedopt.gcode.codes import (
+    G4,
+    G28,
+    G43,
+    G43_5,
+    G64,
+    G80,
+    MOTION,
+    PLANES,
+    SPINDLE_M,
+    VECTOR_WORDS,
+    sort_words,
+)
 from feedopt.gcode.headers import looks_like_tool, tool_header
 from feedopt.gcode.lexer import Block, Word, lex_line, split_lines, where
 from feedopt.gcode.moves import (
@@ -54,7 +83,11 @@ _NAN3 = (math.nan, math.nan, math.nan)
 _AXES = "XYZ"
 _OFFSETS = "IJK"
 _COORDINATES = "XYZIJKR"
+_IJK = ("I", "J", "K")
 Vec3 = tuple[float, float, float]
+#: The tool vector of three-axis moves, and of five-axis ones before any vector is given
+PLUS_Z: Vec3 = (0.0, 0.0, 1.0)
+_THREE_AXIS = (PLUS_Z, PLUS_Z)
 
 
 @dataclass(frozen=True)
@@ -90,6 +123,13 @@ class _State:
     position: Vec3 = _NAN3
     unknown_why: str = "the program start (no G0 to X, Y and Z yet)"
     moved: bool = False
+    #: tool-vector programming in force: "G43.5", "TRAORI" or None; the line switching it on
+    tcp: str | None = None
+    tcp_line: int = 0
+    #: a tool vector was given since tcp was switched on
+    tcp_vector: bool = False
+    #: the tool vector after the last motion block (None before any)
+    axis: Vec3 | None = None
 
 
 @dataclass
@@ -142,6 +182,10 @@ class _Interpreter:
         self.program_number: int | None = None
         self.ended_at: int | None = None
         self.approach_pending = False
+        #: tool vectors at the start and end of each move, and of the move being made
+        self.axes: list[tuple[Vec3, Vec3]] = []
+        self.cur_axes: tuple[Vec3, Vec3] = _THREE_AXIS
+        self.five_axis = False
 
     # ----------------------------------------------------------------- helpers
     def _err(self, b: Block, msg: str) -> InputError:
@@ -236,12 +280,13 @@ class _Interpreter:
         if gs.get("non-modal", (0,))[0] == G4:
             self._dwell(b, vals)
         self._modes(b, gs, vals)
+        vector = self._tool_vector(b, vals)
         for letter in _COORDINATES:
             if letter in vals:
                 d = _decimals(vals[letter])
                 self.got.decimals = d if self.got.decimals is None else max(self.got.decimals, d)
         before = len(self.moves)
-        self._motion(b, gs, vals)
+        self._motion(b, gs, vals, vector)
         if len(self.moves) > before and (self.s.exact_mode or "exact stop" in gs):
             self._stop(b, StopKind.EXACT)
         for m, _ in words.ms:
@@ -333,6 +378,12 @@ class _Interpreter:
                                    "until here)")
             s.inch = inch
         self._length_offset(b, gs, vals)
+        if "TRAORI" in vals and "TRAFOOF" in vals:
+            raise self._err(b, "TRAORI and TRAFOOF in one block")
+        if "TRAORI" in vals:
+            self._tcp_on(b, "TRAORI")
+        elif "TRAFOOF" in vals:
+            self._tcp_off(b, "TRAFOOF")
         if "work offset" in gs:
             s.work_offset = f"G{gs['work offset'][0] // 10}"
         if "path control" in gs:
@@ -347,7 +398,7 @@ class _Interpreter:
         s = self.s
         if "tool length" in gs:
             key, _ = gs["tool length"]
-            if key == 430:
+            if key in (G43, G43_5):
                 h = vals.get("H")
                 if h is None:  # LinuxCNC: the offset of the tool in the spindle
                     s.length_offset = s.tool if s.tool is not None else 0
@@ -355,13 +406,22 @@ class _Interpreter:
                     raise self._err(b, f"{h.text}: H must be a whole number >= 0")
                 else:
                     s.length_offset = int(h.text[1:])
-                self.notes.items.append(
-                    f"line {b.line}: G43 H{s.length_offset} tool length offset recorded, no "
-                    "geometric effect (moves are the programmed tool-tip positions)")
+                if key == G43_5:
+                    self._tcp_on(b, "G43.5")
+                    self.notes.items.append(
+                        f"line {b.line}: G43.5 H{s.length_offset} tool centre point control "
+                        "with tool vectors (I J K); H recorded, no geometric effect (moves are "
+                        "the programmed tool-tip positions)")
+                else:
+                    self._tcp_off(b, "G43")
+                    self.notes.items.append(
+                        f"line {b.line}: G43 H{s.length_offset} tool length offset recorded, "
+                        "no geometric effect (moves are the programmed tool-tip positions)")
             else:
                 s.length_offset = None
-        if "H" in vals and gs.get("tool length", (0,))[0] != 430:
-            raise self._err(b, f"{vals['H'].text}: H is only read with G43")
+                self._tcp_off(b, "G49")
+        if "H" in vals and gs.get("tool length", (0,))[0] not in (G43, G43_5):
+            raise self._err(b, f"{vals['H'].text}: H is only read with G43 or G43.5")
 
     def _path_control(self, b: Block, key: int, vals: dict[str, Word]) -> None:
         """G61/G61.1: exact stop mode; G64: blending, G64 P its tolerance for later moves."""
@@ -379,8 +439,99 @@ class _Interpreter:
         if "Q" in vals:
             self.notes.add("g64_q", b.line)
 
+    # ------------------------------------------------------------- tool vectors
+    def _tcp_on(self, b: Block, code: str) -> None:
+        """Tool-vector programming on (G43.5 or TRAORI); the same code again changes nothing."""
+        s = self.s
+        if s.tcp is not None and s.tcp != code:
+            off = "G49" if s.tcp == "G43.5" else "TRAFOOF"
+            raise self._err(b, f"{code} while {s.tcp} (line {s.tcp_line}) is in force: end it "
+                               f"with {off} first")
+        if s.tcp is None:
+            s.tcp, s.tcp_line, s.tcp_vector = code, b.line, False
+        self.five_axis = True
+
+    def _tcp_off(self, b: Block, code: str) -> None:
+        """``code`` (G49 or G43: G43.5; TRAFOOF: TRAORI) ends tool-vector programming; the
+        tool is along +Z after it."""
+        s = self.s
+        if s.tcp is None or (code == "TRAFOOF") != (s.tcp == "TRAORI"):
+            return
+        if s.axis is not None and s.axis != PLUS_Z:
+            shown = ", ".join(f"{c:.4g}" for c in s.axis)
+            self.notes.items.append(
+                f"line {b.line}: {code} ends {s.tcp} with the tool vector ({shown}): the moves "
+                "after it are read with the tool along +Z (where the rotary axes stand is not "
+                "known without the machine's kinematics)")
+            s.axis = PLUS_Z
+        s.tcp = None
+
+    def _tool_vector(self, b: Block, vals: dict[str, Word]) -> Vec3 | None:
+        """The block's tool vector, normalised (its words are taken out of ``vals``); None if
+        it gives none. Components not written are 0."""
+        s = self.s
+        letters = VECTOR_WORDS if s.tcp == "TRAORI" else _IJK if s.tcp == "G43.5" else ()
+        stray = [vals[k].text for k in VECTOR_WORDS if k in vals and k not in letters]
+        if stray:
+            raise self._err(b, f"{', '.join(stray)}: A3=, B3=, C3= (a Sinumerik tool vector) "
+                               "are only read after TRAORI")
+        words = {k: vals.pop(k) for k in letters if k in vals}
+        if not words:
+            return None
+        comps = [words[k].value if k in words else 0.0 for k in letters]
+        n = math.hypot(*comps)
+        text = " ".join(w.text for w in words.values())
+        v = tuple(c / n for c in comps) if n > 0.0 and math.isfinite(n) else (math.nan,)
+        if not all(math.isfinite(c) for c in v):
+            raise self._err(b, f"{text}: the tool vector has no direction (zero length): give "
+                               "the direction of the tool, from its tip into the spindle")
+        return (v[0], v[1], v[2])
+
+    def _set_axes(self, b: Block, vector: Vec3 | None) -> None:
+        """The tool vectors at the start and end of the block's motion (``cur_axes``)."""
+        s = self.s
+        end = vector or s.axis or PLUS_Z
+        if s.tcp is not None:
+            if vector is not None:
+                s.tcp_vector = True
+            elif not s.tcp_vector:
+                self.notes.add("plus_z", b.line)
+        self.cur_axes = (s.axis or end, end)
+
+    def _turn(self, b: Block, vector: Vec3) -> None:
+        """A block that only gives a tool vector: the tool turns in place."""
+        s = self.s
+        if s.axis is not None and s.axis != vector:
+            self.notes.add("turn", b.line)
+        s.axis = vector
+        s.tcp_vector = True
+
+    def _no_vector(self, b: Block, vector: Vec3 | None, code: str) -> None:
+        """Refuse a tool vector on a G28 or G53 line."""
+        if vector is not None:
+            raise self._err(b, f"a tool vector with {code}: give it on a G0 or G1 line")
+
+    def _feed_category(self, dx: float, dy: float, dz: float) -> MoveCategory:
+        """PLUNGE/RETRACT for a feed line along -/+ the move's end tool vector, else CUT."""
+        a = self.cur_axes[1]
+        if a == PLUS_Z:
+            if math.hypot(dx, dy) <= SAME_POINT_MM:
+                return MoveCategory.PLUNGE if dz < 0 else MoveCategory.RETRACT
+            return MoveCategory.CUT
+        along = dx * a[0] + dy * a[1] + dz * a[2]
+        lateral = math.sqrt((dx - along * a[0]) ** 2 + (dy - along * a[1]) ** 2
+                            + (dz - along * a[2]) ** 2)
+        if lateral <= SAME_POINT_MM:
+            return MoveCategory.PLUNGE if along < 0 else MoveCategory.RETRACT
+        return MoveCategory.CUT
+
+    def _add(self, move: Move) -> None:
+        self.moves.append(move)
+        self.axes.append(self.cur_axes)
+
     # ------------------------------------------------------------------ motion
-    def _motion(self, b: Block, gs: dict[str, tuple[int, Word]], vals: dict[str, Word]) -> None:
+    def _motion(self, b: Block, gs: dict[str, tuple[int, Word]], vals: dict[str, Word],
+                vector: Vec3 | None) -> None:
         s = self.s
         axes = {a: vals[a] for a in _AXES if a in vals}
         offsets = {a: vals[a] for a in _OFFSETS if a in vals}
@@ -403,13 +554,24 @@ class _Interpreter:
                 raise self._err(b, "G28 with a motion code or G53 in the same block")
             if offsets or radius:
                 raise self._err(b, "I, J, K or R with G28")
+            self._no_vector(b, vector, "G28")
+            self._set_axes(b, None)
             self._g28(b, axes)
             return
         kind = s.motion
+        if s.tcp == "G43.5" and kind is MoveKind.ARC and (axes or vector or radius is not None):
+            raise self._err(b, f"{self._code(kind)} under G43.5 (line {s.tcp_line}): I, J, K "
+                               "are the tool vector there, and tool-vector arcs (Fanuc's R "
+                               "form) are not read: post the arcs as G1 lines")
         if (offsets or radius is not None) and kind is not MoveKind.ARC:
             word = (radius or next(iter(offsets.values()))).text
-            raise self._err(b, f"{word}: I, J, K and R are only read with G2/G3")
+            raise self._err(b, f"{word}: I, J, K and R are only read with G2/G3 (and as the "
+                               "tool vector under G43.5)")
+        if "machine coordinates" in gs:
+            self._no_vector(b, vector, "G53")
         if not axes and not (kind is MoveKind.ARC and (offsets or radius is not None)):
+            if vector is not None:
+                self._turn(b, vector)
             return  # G53 without axis words moves nothing
         if kind is None:
             raise self._err(b, f"axis words ({', '.join(x.text for x in axes.values())}) "
@@ -417,7 +579,9 @@ class _Interpreter:
         if "machine coordinates" in gs:
             self._g53(b, axes, kind)
             return
+        self._set_axes(b, vector)
         self._move(b, kind, axes, offsets, radius)
+        s.axis = self.cur_axes[1]
 
     def _target(self, axes: dict[str, Word]) -> Vec3:
         """Where the axis words send the tool (NaN where that is unknown)."""
@@ -555,20 +719,18 @@ class _Interpreter:
             if approach:
                 self.approach_pending = True
             elif not quiet_if_zero:
-                self.notes.add("zero_length", b.line)
+                a0, a1 = self.cur_axes
+                self.notes.add("zero_length" if a0 == a1 else "turn", b.line)
             return
         if feed is None:
             kind, cat = MoveKind.RAPID, MoveCategory.RAPID
         else:
             kind = MoveKind.LINE
-            if math.hypot(dx, dy) <= SAME_POINT_MM:
-                cat = MoveCategory.PLUNGE if dz < 0 else MoveCategory.RETRACT
-            else:
-                cat = MoveCategory.CUT
+            cat = self._feed_category(dx, dy, dz)
             self._check_spindle(b, cat)
         if approach:
             self.approach_pending = True
-        self.moves.append(Move(kind, cat, start, end, feed, **self._common(b)))
+        self._add(Move(kind, cat, start, end, feed, **self._common(b)))
 
     # -------------------------------------------------------------------- arcs
     def _radius_check(self, b: Block, mismatch_mm: float,
@@ -663,7 +825,7 @@ class _Interpreter:
         centre[u], centre[v], centre[n] = cu, cv, start[n]
         self._check_spindle(b, MoveCategory.CUT)
         self.got.arcs += 1
-        self.moves.append(Move(
+        self._add(Move(
             MoveKind.ARC, MoveCategory.CUT, start, end, feed, **self._common(b),
             centre=(centre[0], centre[1], centre[2]), plane=plane, direction=1 if s.ccw else -1,
             sweep_rad=sweep, radius_mm=r0))
@@ -689,7 +851,14 @@ class _Interpreter:
         self._final_arc_checks()
         scale = self._scale
         headers = [tool_header(text, line, scale) for line, text in self.got.tool_comments]
-        return Program(moves=tuple(self.moves), units="inch" if self.s.inch else "mm",
+        moves = tuple(self.moves)
+        if self.five_axis:
+            moves = tuple(replace(m, axis_start=a0, axis_end=a1)
+                          for m, (a0, a1) in zip(moves, self.axes, strict=True))
+            self.notes.items.append(
+                "five-axis program (G43.5 or TRAORI): every move carries tool vectors; moves "
+                "outside G43.5/TRAORI are read with the tool along +Z")
+        return Program(moves=moves, units="inch" if self.s.inch else "mm",
                        work_offsets=tuple(self.got.offsets), tools=tuple(self.got.tools),
                        warnings=self.notes.finish(), source=self.source,
                        program_number=self.program_number, stops=tuple(self.got.stops),
@@ -731,7 +900,8 @@ def parse_gcode(text: str, source: str = "<G-code>", *,
     Returns
     -------
     Program
-        Moves in mm, stops, tool comments (:attr:`Program.tool_headers`, their sizes scaled by
+        Moves in mm (with tool vectors in five-axis programs: G43.5, TRAORI; see the module
+        docstring), stops, tool comments (:attr:`Program.tool_headers`, their sizes scaled by
         the program's units), the number resolution and the warnings.
 
     Raises

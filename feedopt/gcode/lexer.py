@@ -6,6 +6,12 @@ folds letters to upper case; recognises the block-delete slash ``/`` at the star
 is only ``%``, and words ``<letter><number>`` with numbers like ``1``, ``-1.``, ``+.5``. Whatever
 else is left (``#1=2``, ``[1+2]``, ``O<sub>``, a stray character) is an
 :class:`~feedopt.errors.InputError` naming the line, its N number if any and the text.
+
+Sinumerik five-axis words are read too: the tool-vector components ``A3=0.5``, ``B3=...``,
+``C3=...`` (a :class:`Word` with letter ``"A3"``, ``"B3"``, ``"C3"``) and the keywords
+``TRAORI``, ``TRAFOOF``, ``ORIWKS``, ``ORIVECT`` (a Word with that letter and value 0; the
+``(1)`` of ``TRAORI(1)`` is a comment here, as every parenthesis). They are only tried when a
+line is not plain words, so RS-274 lines lex as before.
 """
 
 from __future__ import annotations
@@ -16,7 +22,10 @@ from dataclasses import dataclass
 
 from feedopt.errors import InputError
 
-_WORD = re.compile(r"([A-Z])([+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+))")
+_NUMBER = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)"
+_WORD = re.compile(rf"([A-Z])({_NUMBER})")
+#: A word, a Sinumerik vector word ``A3=0.5`` or a five-axis keyword (tried in this order)
+_EXTENDED = re.compile(rf"(TRAORI|TRAFOOF|ORIWKS|ORIVECT)|([ABC]3)=({_NUMBER})|([A-Z])({_NUMBER})")
 _LEADING_N = re.compile(r"\s*/?\s*[Nn]\s*([0-9]+)")
 _COMMENT_CHARS = frozenset("();")
 #: Largest magnitude accepted for a word's number (N aside): beyond it floats lose meaning.
@@ -31,7 +40,7 @@ class Word:
     Attributes
     ----------
     letter : str
-        Upper-case letter.
+        Upper-case letter (Sinumerik: ``"A3"``, ``"B3"``, ``"C3"`` or a keyword, see above).
     value : float
         The number after it.
     text : str
@@ -145,6 +154,26 @@ def _explain(code: str, pos: int, loc: str) -> InputError:
     return InputError(f"{loc}: cannot read {rest!r}: {why}")
 
 
+def _extended_words(code: str, loc: str) -> tuple[Word, ...]:
+    """The words of a line that is not plain words: Sinumerik vector words and keywords
+    among them, or the error for the first text that is neither."""
+    words: list[Word] = []
+    pos = 0
+    while pos < len(code):
+        m = _EXTENDED.match(code, pos)
+        if m is None:
+            raise _explain(code, pos, loc)
+        keyword, vec, vec_value, letter, value = m.groups()
+        if keyword:
+            words.append(Word(keyword, 0.0, keyword))
+        elif vec:
+            words.append(Word(vec, float(vec_value), m.group(0)))
+        else:
+            words.append(Word(letter, float(value), letter + value))
+        pos = m.end()
+    return tuple(words)
+
+
 def lex_line(raw: str, line: int, source: str = "<G-code>") -> Block:
     """Lex one physical line.
 
@@ -181,13 +210,9 @@ def lex_line(raw: str, line: int, source: str = "<G-code>") -> Block:
         return Block(line, raw, (), None, block_delete, True, tuple(comments))
     found = _WORD.findall(code)
     if sum(len(a) + len(b) for a, b in found) != len(code):
-        pos = 0
-        while True:
-            w = _WORD.match(code, pos)
-            if w is None:
-                raise _explain(code, pos, loc)
-            pos = w.end()
-    words = tuple(Word(a, float(b), a + b) for a, b in found)
+        words = _extended_words(code, loc)
+    else:
+        words = tuple(Word(a, float(b), a + b) for a, b in found)
     for w in words:
         if abs(w.value) >= MAX_ABS_VALUE and w.letter != "N":
             raise InputError(f"{loc}: {w.text[:20]}: number too large (limit {MAX_ABS_VALUE:g})")

@@ -22,6 +22,10 @@ _GROUPED = {
                     "and LinuxCNC unit); Fanuc posts write milliseconds (P1000 = 1 s): if this "
                     "one does, set path.dwell_p_units: ms"),
     "g64_q": "G64 Q (naive CAM tolerance) read but not used: only P sets the path tolerance",
+    "turn": ("tool vector turned in place (a block with only a tool vector, or a zero-length "
+             "move with a new one): the next move starts from the turned vector"),
+    "plus_z": ("move(s) under G43.5/TRAORI before any tool vector was given: read with the "
+               "tool along +Z"),
 }
 
 
