@@ -25,11 +25,13 @@ from feedopt.geometry.program_path import program_path
 from feedopt.geometry.program_pieces import ProgramPathOptions
 from feedopt.robot.model import load_robot
 from feedopt.robot.stage import TcpPath, robot_along_path
+from feedopt.robot.start import five_axis_x_axes, start_joints
+from feedopt.schedule.stage import interior_stop_indices
 
 ROOT = Path(__file__).resolve().parent.parent
 CL = ROOT / "scenarios" / "five_axis" / "ball_saddle.cls"
 ROBOT = ROOT / "robots" / "kuka_kr500_3"
-START = np.radians([9.728, -64.745, 107.062, 0.0, 47.682, 0.0])
+START_DEG = [9.728, -64.745, 107.062, 0.0, 47.682, 0.0]  # controller axes (the scenario's)
 SPACING = 0.2e-3
 
 
@@ -45,8 +47,11 @@ def _stages(program, robot, five: bool) -> dict[str, float]:
     placement = place_path(samples, [1750.0, -300.0, 800.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0],
                            air=built.path.moves.category[built.path.moves.index_at(samples.s)]
                            != "cut")
-    robot_along_path(robot, TcpPath(samples.s, placement.positions, placement.tool_axes),
-                     START)
+    q0 = start_joints(robot, START_DEG)  # as the runner does (feedopt/runner.py)
+    tcp = TcpPath(samples.s, placement.positions, placement.tool_axes,
+                  x_axes=five_axis_x_axes(robot, q0, placement.tool_axes),
+                  breaks=interior_stop_indices(built.path.stops, samples.s))
+    robot_along_path(robot, tcp, q0, "dpp")
     t3 = time.perf_counter()
     return {"path": t1 - t0, "sample": t2 - t1, "robot": t3 - t2, "n": samples.s.size}
 

@@ -13,7 +13,7 @@ from feedopt.cell import fixed_x_axes
 from feedopt.profiling import Progress, stderr_progress
 from feedopt.robot.model import forward_kinematics
 from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
-from feedopt.robot.start import start_joints
+from feedopt.robot.start import five_axis_x_axes, start_joints
 from feedopt.run_data import Compensated, LawResult, Prepared
 from feedopt.schedule.compensation import check_compensation, compensation_fixed_point
 from feedopt.schedule.laws import plan_law
@@ -38,6 +38,8 @@ def compensate(prepared: Prepared, results: dict[str, LawResult],
     nominal = prepared.placement.positions
     q_start = start_joints(prepared.robot, sc.robot.start_configuration_deg)
     x_axes = fixed_x_axes(prepared.placement, sc.robot.fix_tool_rotation)
+    if x_axes is None:  # a five-axis path: as the run's robot stage (feedopt/runner.py)
+        x_axes = five_axis_x_axes(prepared.robot, q_start, prepared.placement.tool_axes)
     red, ik_options = prepared.redundancy, None
     if getattr(red, "x_axes", None) is not None:  # keep the optimised psi(s)
         x_axes, q_start = red.x_axes, red.q_start

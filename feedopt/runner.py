@@ -42,6 +42,7 @@ from feedopt.robot.model import RobotModel, load_robot
 from feedopt.robot.placement_search import suggesting_position
 from feedopt.robot.redundancy_stage import check_redundancy, optimise_along_path
 from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
+from feedopt.robot.start import five_axis_x_axes
 from feedopt.robot.start import start_joints as robot_start_joints
 from feedopt.run_data import Front, LawResult, Prepared, RunResult
 from feedopt.scenario import (
@@ -119,8 +120,10 @@ def _robot(placed: Front, base_dir: Path, progress: Progress
     t0 = time.perf_counter()
     robot = load_robot(resolve(base_dir, scenario.robot.directory, "robot directory"))
     check_redundancy(robot, scenario.robot.redundancy)
-    x_axes = fixed_x_axes(placement, scenario.robot.fix_tool_rotation)
     q_start = start_joints(robot, scenario)
+    x_axes = fixed_x_axes(placement, scenario.robot.fix_tool_rotation)
+    if x_axes is None:  # a five-axis path: a drift-free rotation about the turning axis
+        x_axes = five_axis_x_axes(robot, q_start, placement.tool_axes)
     with progress_bar(progress, "[3/5] robot IK") as bar, suggesting_position(
             robot, samples.position, scenario.workpiece, q_start,
             scenario.robot.fix_tool_rotation):

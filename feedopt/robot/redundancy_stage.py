@@ -15,7 +15,7 @@ from typing import Any
 from feedopt.errors import InputError
 from feedopt.robot.model import RobotModel
 from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
-from feedopt.robot.start import start_joints
+from feedopt.robot.start import five_axis_x_axes, start_joints
 from feedopt.schedule.stage import schedule_problem
 
 __all__ = ["check_redundancy", "optimise_along_path"]
@@ -61,11 +61,12 @@ def optimise_along_path(robot: RobotModel, coarse: Any, front: Any, nearest: Rob
 
     sc = front.scenario.robot
     opts = sc.redundancy_options
+    q0 = start_joints(robot, sc.start_configuration_deg)
+    axes = coarse.placement.tool_axes
     coarse_nearest = robot_along_path(robot, TcpPath(coarse.samples.s,
-                                                     coarse.placement.positions,
-                                                     coarse.placement.tool_axes),
-                                      start_joints(robot, sc.start_configuration_deg),
-                                      sc.stiffness)
+                                                     coarse.placement.positions, axes,
+                                                     x_axes=five_axis_x_axes(robot, q0, axes)),
+                                      q0, sc.stiffness)
     options = RedundancyOptions(objective=opts.objective, knots=opts.knots,
                                 max_evaluations=opts.max_evaluations,
                                 path_acceleration=opts.path_acceleration)
