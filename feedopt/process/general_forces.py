@@ -23,6 +23,18 @@ axial direction reversed)::
 
 and the spindle torque is ``r_j dFt``. At kappa = 90 deg these are the cylinder's equations.
 
+Feed along the axis
+-------------------
+A tilted tool (a lead angle, a ramp) feeds partly along its axis: the feed direction in the
+tool frame is ``(fx, 0, fz)`` and the chip is the advance per tooth projected on the edge
+normal (E&A Eq. 11 generalised: Ozturk & Budak 2007; Lazoglu 2003)::
+
+    h = c (fx sin(kappa) sin(theta) - fz cos(kappa))
+
+with the same edge forces and directions (``SliceEngagement.feed_x`` / ``feed_z``); the
+engaged intervals must then hold only where h > 0 (the front of the tool,
+:mod:`feedopt.process.tilted_engagement`).
+
 Engagement by height
 --------------------
 An :class:`~feedopt.process.engagement.Engagement` gives the material in front of the cutter
@@ -84,17 +96,25 @@ def _lags(rate: float, slices: Slices) -> np.ndarray:
 @dataclass(frozen=True)
 class SliceEngagement:
     """Per sample the slices of the profile over its axial depth and, per slice, the union
-    of the engaged intervals ``[lo_w, hi_w)`` (w < W, padded with empty ``lo == hi``)."""
+    of the engaged intervals ``[lo_w, hi_w)`` (w < W, padded with empty ``lo == hi``).
+
+    ``feed_x``, ``feed_z`` (n,): a tilted tool's unit feed direction in its own frame, across
+    and along the tool axis (lead: ``(cos, sin)`` of the angle; module docstring, "Feed along
+    the axis"); None: the feed is across the axis (1, 0)."""
 
     sliced: Slices
     lo: np.ndarray  # (n, L, W) [rad]
     hi: np.ndarray  # (n, L, W) [rad]
+    feed_x: np.ndarray | None = None
+    feed_z: np.ndarray | None = None
 
     def rows(self, sl: slice) -> SliceEngagement:
         """The samples ``sl``."""
         s = self.sliced
+        fx, fz = (None if f is None else f[sl] for f in (self.feed_x, self.feed_z))
         return SliceEngagement(Slices(s.radius[sl], s.height[sl], s.sin_kappa[sl],
-                                      s.cos_kappa[sl], s.width[sl]), self.lo[sl], self.hi[sl])
+                                      s.cos_kappa[sl], s.width[sl]), self.lo[sl], self.hi[sl],
+                               fx, fz)
 
 
 def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEngagement:
@@ -179,6 +199,8 @@ def general_sums(tool: Tool, coeffs: CuttingCoefficients, phi: np.ndarray,
         if not np.any(part.lo < part.hi):
             continue
         weights = _slice_matrices(part.sliced, coeffs)  # (r, L, 5, 8)
+        if part.feed_x is not None:
+            weights = _tilted_matrices(weights, part, coeffs)
         _block(out[sl], phi[sl], (part.lo, part.hi), _lags(tool.helix_rate, part.sliced),
                (tool.teeth, weights))
     return out
@@ -201,6 +223,27 @@ def _slice_matrices(sliced: Slices, k: CuttingCoefficients) -> np.ndarray:
     m[..., 0, 6] = k.kre * ck + k.kae * sk
     m[..., 0, 7] = k.kte * radius
     return m * sliced.width[:, None, None, None]
+
+
+def _tilted_matrices(flat: np.ndarray, se: SliceEngagement, k: CuttingCoefficients
+                     ) -> np.ndarray:
+    """:func:`_slice_matrices` for a feed ``(fx, 0, fz)`` in the tool frame: the chip
+    ``c (fx sin(kappa) sin(theta) - fz cos(kappa))`` (module docstring) scales the cutting
+    columns by fx and adds the axial feed's terms; the edge columns stay."""
+    sliced = se.sliced
+    fx, fz = se.feed_x[:, None, None, None], se.feed_z[:, None]
+    sk, ck, radius = sliced.sin_kappa, sliced.cos_kappa, sliced.radius
+    db = sliced.width[:, None]
+    n_in = -k.krc * sk + k.kac * ck  # in-plane part of Fr and Fa per unit chip
+    m = flat.copy()
+    m[..., :4] *= fx
+    m[..., 2, 0] += k.ktc * ck * fz * db
+    m[..., 1, 0] += -n_in * ck * fz * db
+    m[..., 1, 1] += -k.ktc * ck * fz * db
+    m[..., 2, 1] += -n_in * ck * fz * db
+    m[..., 0, 2] += -(k.krc * ck + k.kac * sk) * ck * fz * db
+    m[..., 0, 3] += -k.ktc * ck * radius * fz * db
+    return m
 
 
 def _block(out: np.ndarray, phi: np.ndarray, interval: tuple[np.ndarray, np.ndarray],

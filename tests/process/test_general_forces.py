@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from feedopt.process.coefficients import CuttingCoefficients
-from feedopt.process.cutter import CutterShape
+from feedopt.process.cutter import CutterShape, profile_slices
 from feedopt.process.engagement import Engagement
 from feedopt.process.forces import critical_angles, milling_forces, milling_forces_at
 from feedopt.process.tool import Tool
@@ -375,3 +375,57 @@ def test_a_piece_deeper_than_the_summary_depth_is_cut_to_its_own_depth():
     full = milling_forces(tool, K, pieced(2e-3), angles, 40)
     np.testing.assert_array_equal(short.cutting, full.cutting)
     np.testing.assert_array_equal(short.edge, full.edge)
+
+
+# --- a feed along the tool axis (lead): the chip c (fx sin k sin t - fz cos k) ----------------
+
+
+def _reference_tilted(tool, coeffs, phi, se, fx, fz):
+    """Forces by assembling each edge element's vector from the physics (no matrices): the
+    element of slice j of tooth t at theta takes the chip c f.n (f the feed in the tool frame,
+    n the edge normal) and pushes along the tangential, normal and profile directions."""
+    k, s = coeffs, se.sliced
+    out = np.zeros(phi.shape + (8,))
+    lag = tool.helix_rate * s.height
+    for i in range(phi.shape[0]):
+        for a, p in enumerate(phi[i]):
+            for t in range(tool.teeth):
+                for j in range(s.radius.shape[1]):
+                    th = np.mod(p + t * 2 * np.pi / tool.teeth - lag[i, j], 2 * np.pi)
+                    if not np.any((th >= se.lo[i, j]) & (th < se.hi[i, j])):
+                        continue
+                    sk, ck = s.sin_kappa[i, j], s.cos_kappa[i, j]
+                    e_t = np.array([-np.cos(th), np.sin(th), 0.0])
+                    n = np.array([sk * np.sin(th), sk * np.cos(th), -ck])
+                    e_a = np.array([ck * np.sin(th), ck * np.cos(th), sk])
+                    h = fx[i] * sk * np.sin(th) - fz[i] * ck
+                    db = s.width[i]
+                    cut = db * h * (k.ktc * e_t - k.krc * n + k.kac * e_a)
+                    edge = db * (k.kte * e_t - k.kre * n + k.kae * e_a)
+                    out[i, a, :3] += cut
+                    out[i, a, 3] += s.radius[i, j] * db * h * k.ktc
+                    out[i, a, 4:7] += edge
+                    out[i, a, 7] += s.radius[i, j] * db * k.kte
+    return out
+
+
+@pytest.mark.parametrize("lead_deg", [0.0, 10.0, -15.0, 30.0])
+def test_a_feed_along_the_axis_matches_the_element_by_element_physics(lead_deg):
+    from feedopt.process.general_forces import SliceEngagement, general_sums
+
+    tool = Tool("ball", 10e-3, 2, math.radians(30.0), 20e-3, shape=CutterShape.BALL,
+                corner_radius=5e-3)
+    coeffs = CuttingCoefficients(8.57e8, 3.19e8, -1.05e8, 7.42e3, 8.45e3, -2.13e3)
+    sliced = profile_slices(tool.profile, np.array([2e-3, 4e-3]), 12)
+    lo = np.full((2, 12, 1), 0.3)
+    hi = np.full((2, 12, 1), 2.6)
+    psi = math.radians(lead_deg)
+    fx, fz = np.full(2, math.cos(psi)), np.full(2, math.sin(psi))
+    phi = np.tile(np.linspace(0.0, 2 * np.pi, 23, endpoint=False), (2, 1))
+    got = general_sums(tool, coeffs, phi, SliceEngagement(sliced, lo, hi, fx, fz))
+    ref = _reference_tilted(tool, coeffs, phi, SliceEngagement(sliced, lo, hi), fx, fz)
+    assert np.allclose(got, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    if lead_deg == 0.0:  # no axial feed: exactly the untilted sums
+        flat = general_sums(tool, coeffs, phi, SliceEngagement(sliced, lo, hi))
+        assert np.array_equal(got[..., 4:], flat[..., 4:])
+        assert np.allclose(got, flat, rtol=1e-15, atol=0.0)
