@@ -165,7 +165,7 @@ def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients
            "cutter" if shaped else f"material file {material_name!r} has no plunge "
            "coefficients (a plunge: block per speed; feedopt calibrate --plunge-forces fits "
            "them)")
-    warning = (f"the plunges straight down into material at {shown} ({int(mask.sum())} "
+    warning = (f"the plunges along the tool axis into material at {shown} ({int(mask.sum())} "
                f"samples) have no force model: {why}; the deflection limit does not bound "
                "their feed")
     return engagement.with_plunge(None), mask, [warning]
@@ -189,7 +189,7 @@ def inclined_feed_notes(samples, cutting: np.ndarray) -> list[str]:
     if angle[k] <= INCLINED_FEED_DEG:
         return []
     return [f"the feed leans out of the plane across the tool axis by up to {angle[k]:.3g} deg "
-            f"while cutting ({int(np.count_nonzero(angle > INCLINED_FEED_DEG))} samples over "
+            f"while cutting ({int(np.count_nonzero(angle > INCLINED_FEED_DEG))} sample(s) over "
             f"{INCLINED_FEED_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): the force "
             "model takes the whole feed across the axis on the side edges (up to "
             f"{1 / np.cos(np.radians(angle[k])):.3g} x the chip there: conservative) and does "

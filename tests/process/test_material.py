@@ -135,7 +135,7 @@ def test_a_plunge_without_plunge_coefficients_is_unmodelled_and_named(quick_scen
     inside = _plunge_samples(front)
     assert front.process.unmodelled_plunge.tolist() == inside.tolist()
     assert front.process.engagement.plunge is None  # no force model there
-    notes = [w for w in front.process.warnings if "plunges straight down" in w]
+    notes = [w for w in front.process.warnings if "plunges along the tool axis" in w]
     assert len(notes) == 1 and "at line 6 (" in notes[0] and "no plunge coefficients" in notes[0]
 
 
