@@ -126,7 +126,7 @@ def _robot(placed: Front, base_dir: Path, progress: Progress
         x_axes = five_axis_x_axes(robot, q_start, placement.tool_axes)
     with progress_bar(progress, "[3/5] robot IK") as bar, suggesting_position(
             robot, samples.position, scenario.workpiece, q_start,
-            scenario.robot.fix_tool_rotation):
+            scenario.robot.fix_tool_rotation, five_axis=samples.axis is not None):
         tcp = TcpPath(samples.s, placement.positions, placement.tool_axes, x_axes=x_axes,
                       breaks=interior_stop_indices(placed.path.stops, samples.s))
         along = robot_along_path(robot, tcp, q_start, scenario.robot.stiffness, progress=bar)

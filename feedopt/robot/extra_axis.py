@@ -50,6 +50,7 @@ from feedopt.robot.redundancy import (
     max_deflection_at_nominal,
 )
 from feedopt.robot.stage import RobotAlongPath, TcpPath, robot_along_path
+from feedopt.robot.start import five_axis_x_axes
 from feedopt.schedule.stage import ScheduleInputs
 from feedopt.units import MM
 
@@ -209,7 +210,9 @@ def evaluate_held(robot: RobotModel, task: RedundancyTask, joint: int, value: fl
     (InputError where the IK refuses it)."""
     q0 = start_with_held(robot, task.positions[0], task.tool_axes[0], task.nearest.q[0],
                          joint, value)
-    along = robot_along_path(robot, TcpPath(task.s, task.positions, task.tool_axes), q0,
+    x_axes = five_axis_x_axes(robot, q0, task.tool_axes)  # None unless the axis turns
+    along = robot_along_path(robot, TcpPath(task.s, task.positions, task.tool_axes,
+                                            x_axes=x_axes), q0,
                              stiffness_set, ik_options=IKOptions(held_joint=joint))
     schedule = task.bound_of(along)
     objective = (schedule.problem.lower_bound_time() if options.objective == "time"

@@ -87,16 +87,20 @@ def suggest_workpiece_position(robot, position_w: np.ndarray, position_mm, rpy_d
 
 @contextmanager
 def suggesting_position(robot, position_w: np.ndarray, workpiece: Any, q_start: np.ndarray,
-                        fix_rotation: bool) -> Iterator[None]:
+                        fix_rotation: bool, five_axis: bool = False) -> Iterator[None]:
     """An unreachable sample's error (:class:`feedopt.robot.ik.UnreachableError`) raised in
     the block, as an InputError with a workpiece position that reaches the path
     (:func:`suggest_workpiece_position`, or "none found"). ``workpiece`` is the scenario's
-    section (``position_mm``, ``rpy_deg``, ``tool_axis``)."""
+    section (``position_mm``, ``rpy_deg``, ``tool_axis``); ``five_axis``: the path's tool
+    axis turns, the search (along ``tool_axis``) does not apply: no suggestion."""
     from feedopt.robot.ik import UnreachableError
 
     try:
         yield
     except UnreachableError as exc:
+        if five_axis:  # the search places a tool along workpiece.tool_axis, not the path's
+            raise InputError(f"{exc}; move the workpiece (no position is suggested for a path "
+                             "whose tool axis turns)") from None
         hint = suggest_workpiece_position(
             robot, position_w, workpiece.position_mm, workpiece.rpy_deg, workpiece.tool_axis,
             q_start, fix_rotation)

@@ -57,7 +57,7 @@ def five_axis_x_axes(robot: RobotModel, q_start: np.ndarray, tool_axes: np.ndarr
         raise InputError(f"the tool axis at sample {k} turns to within "
                          f"{np.degrees(np.arcsin(norm[k])):.1f} deg of the start pose's tool x "
                          "axis, about which the rotation about the tool axis is measured: turn "
-                         "the start configuration's last axis by 90 deg or use "
-                         "robot.redundancy: optimise")
+                         "the start configuration's last axis by 90 deg or set "
+                         "robot.fix_tool_rotation: true (the workpiece's x)")
     return x / norm[:, None]
 

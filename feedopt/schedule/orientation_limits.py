@@ -79,14 +79,19 @@ class OrientationExtrema:
 
 def dense_orientation_extrema(trajectory, problem, sample_times: np.ndarray
                               ) -> OrientationExtrema | None:
-    """Replay |du/dt| and |d2u/dt2| of ``trajectory`` at the samples and ``REPLAY_POINTS``
-    instants between each two (None on a three-axis path)."""
+    """Replay |du/dt| and |d2u/dt2| of ``trajectory`` at the samples, ``REPLAY_POINTS``
+    instants between each two and the instants it passes the windows' points, where the
+    rates peak (None on a three-axis path)."""
     orientation = problem.orientation
     if orientation is None:
         return None
     t = np.asarray(sample_times, dtype=float)
     frac = np.arange(REPLAY_POINTS) / REPLAY_POINTS
     dense = np.append((t[:-1, None] + np.diff(t)[:, None] * frac).ravel(), t[-1])
+    windows = orientation.window_points()
+    windows = windows[(windows >= problem.s[0]) & (windows <= problem.s[-1])]
+    if windows.size:
+        dense = np.concatenate([dense, trajectory.time_at(windows)])
     m = trajectory.at(dense)
     s = np.clip(m.s, 0.0, problem.length)
     u = orientation.evaluate(s)

@@ -189,8 +189,9 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
         segment_start=path.segment_start,
         segment_kind=path.segment_kind,
         key_point_spacing=sched.key_point_spacing_mm * MM,
-        programmed_feed=(None if programmed is None else np.minimum(
-            programmed, bound.parts.get("joint_velocity", np.inf))),
+        programmed_feed=(None if programmed is None else np.minimum(np.minimum(
+            programmed, bound.parts.get("joint_velocity", np.inf)),
+            bound.parts.get("orientation", np.inf))),
         stops=stop_samples(path.stops, samples.s),
         orientation=path.orientation,
         orientation_rate_max=_rad(limits.orientation_rate_deg_s),

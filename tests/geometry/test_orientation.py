@@ -105,3 +105,25 @@ def test_property_within_tolerance_and_unit(rows, tol_deg):
     got = o.evaluate(x).axis
     assert np.allclose(np.linalg.norm(got, axis=1), 1.0, atol=1e-12)
     assert np.max(_angle(got, _slerp_reference(knots, x))) <= math.radians(tol_deg) * 1.001
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.5, 20.0), st.floats(-0.8, 0.8), st.floats(-0.8, 0.8)),
+                min_size=3, max_size=6),
+       st.floats(0.005, 1.0), st.floats(0.05, 3.0))
+def test_peaks_bound_the_rates_between_the_samples(rows, tol_deg, spacing_mm):
+    """peaks() against a brute-force 400 points per sample interval (both ends included)."""
+    gaps = np.array([r[0] for r in rows]) * 1e-3
+    s = np.concatenate([[0.0], np.cumsum(gaps)])
+    u = np.array([[0.0, 0.0, 1.0]] + [[r[1], r[2], 1.0] for r in rows])
+    o = blend_orientation(_knots(s, u), math.radians(tol_deg))
+    x = np.linspace(0.0, s[-1], max(3, int(s[-1] / (spacing_mm * 1e-3)) + 1))
+    rate, curv = o.peaks(x)
+    dense = np.linspace(0.0, 1.0, 401)
+    pts = (x[:-1, None] + np.diff(x)[:, None] * dense).ravel()
+    got = o.evaluate(pts)
+    d1 = np.linalg.norm(got.d1, axis=1).reshape(x.size - 1, -1).max(axis=1)
+    d2 = np.linalg.norm(got.d2, axis=1).reshape(x.size - 1, -1).max(axis=1)
+    # each sample's peak covers both intervals beside it (within 1 % between the points)
+    assert np.all(rate[:-1] >= 0.99 * d1) and np.all(rate[1:] >= 0.99 * d1)
+    assert np.all(curv[:-1] >= 0.99 * d2) and np.all(curv[1:] >= 0.99 * d2)
