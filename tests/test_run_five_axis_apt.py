@@ -82,3 +82,24 @@ def test_public_nx_variable_axis_file_is_planned_and_verified(tmp_path):
     tilt = np.degrees(np.arccos(vec[:, 2]))
     assert o["tilt_from_workpiece_z_deg"][1] == pytest.approx(tilt.max(), abs=0.25)
     assert o["largest_deviation_deg"] <= 0.2
+
+
+def _local(text: str) -> str:
+    """A bundled scenario's text with its relative files made absolute (for tmp_path)."""
+    sc = ROOT / "scenarios"
+    return (text.replace("../robots", str(ROOT / "robots"))
+            .replace("file: five_axis/", f"file: {sc}/five_axis/")
+            .replace("tool: tools/", f"tool: {sc}/tools/")
+            .replace("material: materials/", f"material: {sc}/materials/"))
+
+
+def test_the_programmed_baseline_keeps_the_orientation_limits(tmp_path):
+    text = _local((ROOT / "scenarios" / "five_axis_swarf.yaml").read_text()).replace(
+        "orientation_rate_deg_s: 5.0", "orientation_rate_deg_s: 1.0")
+    (tmp_path / "s.yaml").write_text(text)
+    result = run_scenario(tmp_path / "s.yaml", tmp_path / "out", laws=["programmed"],
+                          progress=quiet, report=False)
+    row = result.summary["laws"]["programmed"]
+    assert row["verified"], row["problems"]
+    assert row["orientation"]["max_rate_deg_s"] <= 1.0 * (1 + 1e-6)
+    assert row["orientation"]["max_rate_deg_s"] > 0.9  # the limit binds
