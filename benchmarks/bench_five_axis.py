@@ -44,7 +44,7 @@ def _stages(program, robot, five: bool) -> dict[str, float]:
     t1 = time.perf_counter()
     samples = built.path.sample(SPACING)
     t2 = time.perf_counter()
-    placement = place_path(samples, [1750.0, -300.0, 800.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0],
+    placement = place_path(samples, [1750.0, -300.0, 800.0], [0.0, 0.0, 0.0], None,
                            air=built.path.moves.category[built.path.moves.index_at(samples.s)]
                            != "cut")
     q0 = start_joints(robot, START_DEG)  # as the runner does (feedopt/runner.py)

@@ -38,7 +38,7 @@ class Placement:
         return points_w @ self.transform[:3, :3].T + self.transform[:3, 3]
 
 
-def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
+def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w=None,
                air: np.ndarray | None = None) -> Placement:
     """Put the path samples into the base frame; InputError when the tool axis is zero or the
     path runs along it somewhere (milling needs a feed across the tool axis).
@@ -70,10 +70,10 @@ def place_path(samples: PathPoints, position_mm, rpy_deg, tool_axis_w,
 
 def _tool_axes(samples: PathPoints, rot: np.ndarray, tool_axis_w) -> np.ndarray:
     """(n, 3) unit tool axes in the base frame: a five-axis path's own (``samples.axis``,
-    then ``workpiece.tool_axis`` must be left at its default), else ``tool_axis_w``."""
-    axis_w = np.asarray(tool_axis_w, dtype=float)
+    then ``workpiece.tool_axis`` must not be given: None), else ``tool_axis_w`` (None: +z)."""
+    axis_w = np.asarray((0.0, 0.0, 1.0) if tool_axis_w is None else tool_axis_w, dtype=float)
     if samples.axis is not None:
-        if np.any(axis_w != (0.0, 0.0, 1.0)):
+        if tool_axis_w is not None:
             raise InputError("workpiece.tool_axis is for three-axis paths: this path's tool "
                              "vectors give the tool axis at every point (remove tool_axis)")
         return samples.axis @ rot.T

@@ -91,7 +91,8 @@ def _place(scenario: Scenario, base_dir: Path, progress: Progress,
              f"{samples.s.size} samples ({times['geometry']:.2f} s)")
     t0 = time.perf_counter()
     wp = scenario.workpiece
-    placement = place_path(samples, wp.position_mm, wp.rpy_deg, wp.tool_axis,
+    given_axis = wp.tool_axis if "tool_axis" in wp.model_fields_set else None
+    placement = place_path(samples, wp.position_mm, wp.rpy_deg, given_axis,
                            air=air_samples(path, samples.s))
     times["process"] = time.perf_counter() - t0
     return Front(scenario=scenario, path=path, samples=samples, placement=placement,

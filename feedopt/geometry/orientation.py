@@ -187,21 +187,26 @@ class ToolOrientation:
         the faster of its two circles (a blend turns faster than either by at most the
         difference of their rates)."""
         ks, h = self.knots.s, self.half_window
+        w = np.abs(self._w)
+        turning = np.r_[w > 0, False] | np.r_[False, w > 0]  # a knot beside a turn
+        if not turning.any():  # a constant tool vector: sampled as a three-axis path
+            return np.unique(bounds), np.full(np.unique(bounds).size - 1, spacing)
+        ks, h = ks[turning], h[turning]
         b = np.unique(np.concatenate([bounds, ks, ks - h, ks + h]))
         b = b[(b >= bounds[0]) & (b <= bounds[-1])]
-        # knots and window ends within a thousandth of the spacing of a neighbour (two
+        # knots and window ends within 5 % of the spacing of a neighbour (two
         # neighbouring windows meet about half way) are dropped: no slivers of a step; the
         # stops and ends stay exact
         gaps = np.diff(b)
-        close = np.r_[np.inf, gaps] <= 1e-3 * spacing
-        close |= np.r_[gaps, np.inf] <= 1e-3 * spacing
+        close = np.r_[np.inf, gaps] <= 0.05 * spacing
+        close |= np.r_[gaps, np.inf] <= 0.05 * spacing
         b = b[~close | np.isin(b, bounds)]
         mid = 0.5 * (b[:-1] + b[1:])
         rate = np.abs(self._w)[self._interval(mid)]
+        ks, h = self.knots.s, self.half_window
         j = np.clip(np.searchsorted(ks, mid), 1, ks.size - 1)
         j = np.where(np.abs(mid - ks[j - 1]) < np.abs(mid - ks[j]), j - 1, j)
         inside = (h[j] > 0) & (np.abs(mid - ks[j]) < h[j])
-        w = np.abs(self._w)
         both = 2.0 * np.maximum(w[np.clip(j - 1, 0, w.size - 1)], w[np.clip(j, 0, w.size - 1)])
         rate = np.where(inside, both, rate)
         with np.errstate(divide="ignore"):

@@ -30,13 +30,16 @@ def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def program_knots(program: Program, s_start: np.ndarray, program_move: np.ndarray,
-                  stop_s: np.ndarray, length: float) -> tuple[OrientationKnots, list[str]]:
-    """The knots of ``program`` (the linked program the path was built from) and the notes
-    on tool turns moved into air moves.
+                  stop_s: np.ndarray, length: float, merge: float = 0.0
+                  ) -> tuple[OrientationKnots, list[str], float]:
+    """The knots of ``program`` (the linked program the path was built from), the notes on
+    tool turns moved into air moves and merged vectors, and the largest merged turn [rad].
 
     s_start : (m,) where each of its moves starts on the path [m]; program_move : (m,) the
     index of the programmed move (-1 for air-link legs); stop_s : arc lengths of the path's
-    stops [m]; length : the path's length [m].
+    stops [m]; length : the path's length [m]; merge : vectors at one arc length (moves the
+    smoothing shortened to nothing) that differ by at most this [rad] are merged into the
+    first of them (the caller blends within its tolerance less the largest merged turn).
     """
     rows = np.flatnonzero(np.asarray(program_move) >= 0)
     ends = np.append(s_start[1:], length)
@@ -49,8 +52,15 @@ def program_knots(program: Program, s_start: np.ndarray, program_move: np.ndarra
     same_s = np.diff(s) <= 1e-12 * max(length, 1e-12)
     turn = _angles(u[:-1], u[1:])
     keep[1:][same_s & (turn <= SAME_AXIS)] = False  # shared knots
-    moved = same_s & (turn > SAME_AXIS) & is_start[1:]
+    merged = same_s & (turn > SAME_AXIS) & (turn <= merge)
+    keep[1:][merged] = False
+    moved = same_s & (turn > max(SAME_AXIS, merge)) & is_start[1:]
     notes = []
+    if merged.any():
+        notes.append(f"{int(merged.sum())} tool vector(s) of moves the smoothing shortened to "
+                     f"nothing merged with their neighbour (largest difference "
+                     f"{math.degrees(turn[merged].max()):.3g} deg; first at line "
+                     f"{lines[int(np.flatnonzero(merged)[0]) + 1]})")
     if np.any(moved & ~air[1:]):
         j = int(np.flatnonzero(moved & ~air[1:])[0]) + 1
         raise InputError(
@@ -64,8 +74,9 @@ def program_knots(program: Program, s_start: np.ndarray, program_move: np.ndarra
         first = lines[int(np.flatnonzero(moved)[0]) + 1]
         notes.append(f"{int(moved.sum())} turn(s) of the tool vector without motion (first "
                      f"before line {first}) are made during the air move that follows")
+    merged_turn = float(turn[merged].max()) if merged.any() else 0.0
     return _finish(s[keep], u[keep], lines[keep], stop_s, length,
-                   f"{program.source} line"), notes
+                   f"{program.source} line"), notes, merged_turn
 
 
 def _finish(s: np.ndarray, u: np.ndarray, lines: np.ndarray, stop_s: np.ndarray,
@@ -81,8 +92,9 @@ def _finish(s: np.ndarray, u: np.ndarray, lines: np.ndarray, stop_s: np.ndarray,
     if bad.size:
         j = int(bad[0]) + 1
         raise InputError(f"{where} {lines[j]}: two tool vectors at one point of the path "
-                         f"(s = {s[j] * 1e3:.4f} mm); feedopt turns the tool only while it "
-                         "travels along the path")
+                         f"(s = {s[j] * 1e3:.4f} mm: the smoothing shortened the moves between "
+                         "them to nothing, or the tool turns in place); feedopt turns the tool "
+                         "only while it travels along the path")
     tol = 1e-9 * max(length, 1e-12)
     stop = np.zeros(s.size, dtype=bool)
     if np.asarray(stop_s).size:

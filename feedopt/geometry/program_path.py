@@ -164,9 +164,10 @@ def _orient(path: Path, linked: Program, program_move: np.ndarray,
             opts: ProgramPathOptions) -> list[str]:
     """Give a five-axis program's path its G2 orientation (``path.orientation``) within the
     angle tolerance; the notes say what was done."""
-    knots, notes = program_knots(linked, path.moves.s_start, program_move, path.stop_s,
-                                 path.length)
-    path.orientation = blend_orientation(knots, opts.orientation_tolerance)
+    tol = opts.orientation_tolerance
+    knots, notes, merged = program_knots(linked, path.moves.s_start, program_move,
+                                         path.stop_s, path.length, merge=0.5 * tol)
+    path.orientation = blend_orientation(knots, tol - merged)
     dev = path.orientation.deviation()
     blended = int(np.count_nonzero(path.orientation.half_window))
     notes.append(f"tool vectors: {knots.s.size} on the path, {blended} turn(s) of their "

@@ -158,7 +158,18 @@ def path_from_section(section: Any, base_dir: FilePath, *,
 def orient_waypoints(path: Path, waypoints: np.ndarray, vectors: np.ndarray, name: str,
                       tolerance: float) -> None:
     """Give a five-axis waypoint path its G2 orientation within ``tolerance`` [rad]."""
-    kept = np.delete(np.arange(len(waypoints)), list(path.dropped_waypoints))
+    dropped = np.asarray(path.dropped_waypoints, dtype=int)
+    if dropped.size:  # a repeated point that turns the tool would be a turn in place
+        a, b = vectors[dropped], vectors[dropped - 1]
+        turn = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1),
+                                     np.einsum("ij,ij->i", a, b)))
+        if np.any(turn > 1e-7):
+            k = int(np.argmax(turn))
+            raise InputError(f"{name}: waypoint {int(dropped[k]) + 1} repeats the one before "
+                             f"with a tool vector {turn[k]:.3g} deg away (a turn in place; "
+                             "feedopt turns the tool only while it travels along the path): "
+                             "remove it or give it the same vector")
+    kept = np.delete(np.arange(len(waypoints)), dropped)
     knots = waypoint_knots(path, waypoints[kept], vectors[kept], name)
     path.orientation = blend_orientation(knots, tolerance)
     dev = path.orientation.deviation().max(initial=0.0)

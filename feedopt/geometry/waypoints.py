@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -37,8 +38,9 @@ def _table(p: FilePath) -> tuple[list[str], list[list[str]], list[int]]:
 
 
 def _column(p: FilePath, header: list[str], rows: list[list[str]], numbers: list[int],
-            name: str, limit: float) -> np.ndarray:
-    """The finite values of column ``name`` (|value| <= ``limit``), errors naming the line."""
+            name: str, limit: float, coordinate: bool = True) -> np.ndarray:
+    """The finite values of column ``name`` (|value| <= ``limit``), errors naming the line
+    (a ``coordinate`` in mm, else a tool-vector component)."""
     c = header.index(name)
     out = np.empty(len(rows))
     for r, (row, no) in enumerate(zip(rows, numbers, strict=True)):
@@ -49,6 +51,11 @@ def _column(p: FilePath, header: list[str], rows: list[list[str]], numbers: list
                 f"{p} line {no}, column {name}: {row[c].strip()!r} is not a number") from None
         if not math.isfinite(v):
             raise InputError(f"{p} line {no}, column {name}: value {v} is not finite")
+        if abs(v) > limit and not coordinate:
+            raise InputError(
+                f"{p} line {no}, column {name}: {v:g} is no plausible tool-vector component "
+                f"(|value| <= {limit:g}; the vector is normalised, so any length up to that "
+                "gives the same direction)")
         if abs(v) > limit:
             raise InputError(
                 f"{p} line {no}, column {name}: {v:g} mm is beyond any robot's reach "
@@ -86,12 +93,20 @@ def read_tool_vectors_csv(path: str | FilePath) -> np.ndarray | None:
     p = FilePath(path)
     header, rows, numbers = _table(p)
     present = [c for c in TOOL_VECTOR_COLUMNS if c in header]
+    near = [h for h in header if h not in TOOL_VECTOR_COLUMNS
+            and re.fullmatch(r"(tool_?)?[ijk](_[a-z0-9]*)?", h.lower())]
+    if near:
+        raise InputError(f"{p}: column(s) {', '.join(near)} look like a tool vector, which is "
+                         "read from columns named exactly i, j, k (lower case, no unit: the "
+                         "vector is normalised); rename them, or remove them for a three-axis "
+                         "path")
     if not present:
         return None
     if len(present) < 3:
         raise InputError(f"{p}: a tool vector needs the three columns i, j, k; the header has "
                          f"only {', '.join(present)}")
-    v = np.column_stack([_column(p, header, rows, numbers, c, 1e6) for c in TOOL_VECTOR_COLUMNS])
+    v = np.column_stack([_column(p, header, rows, numbers, c, 1e6, coordinate=False)
+                         for c in TOOL_VECTOR_COLUMNS])
     norm = np.linalg.norm(v, axis=1)
     if np.any(norm < 1e-9):
         k = int(np.argmin(norm))

@@ -104,3 +104,40 @@ def test_sampling_is_finer_where_the_tool_turns_fast():
     step = np.diff(p.s)
     assert 0.00019 < step.max() <= 0.0002  # coarse where it does not turn
     assert p.s.size < 0.042 / 0.0002 + 150
+
+
+def test_vectors_of_moves_smoothed_to_nothing_are_merged_within_half_the_tolerance():
+    from feedopt.geometry.orientation_knots import program_knots
+
+    axes = [((0, 0, 1), (0, 0, 1)), ((0, 0, 1), (0.001, 0, 1)), ((0.001, 0, 1),) * 2]
+    prog = _program(POINTS, axes)
+    s_start = np.array([0.0, 0.02, 0.02])  # the second move shortened to nothing
+    with pytest.raises(InputError, match="line 2: two tool vectors at one point of the path"):
+        program_knots(prog, s_start, np.arange(3), np.zeros(0), 0.05, merge=0.0)
+    knots, notes, merged = program_knots(prog, s_start, np.arange(3), np.zeros(0), 0.05,
+                                         merge=math.radians(0.1))
+    assert merged == pytest.approx(math.atan(0.001), rel=1e-6)
+    assert "merged with their neighbour" in notes[0]
+    assert np.all(np.diff(knots.s) > 0)
+
+
+def test_misnamed_vector_columns_and_a_repeated_point_that_turns_are_refused(tmp_path):
+    import types
+
+    from feedopt.geometry.stage import path_from_section
+    from feedopt.geometry.waypoints import read_tool_vectors_csv
+
+    for header in ("I,J,K", "i_mm,j_mm,k_mm", "tool_i,tool_j,tool_k"):
+        f = tmp_path / "w.csv"
+        f.write_text(f"x_mm,y_mm,z_mm,{header}\n0,0,0,0,0,1\n50,0,0,0,0,1\n")
+        with pytest.raises(InputError, match="look like a tool vector"):
+            read_tool_vectors_csv(f)
+    f = tmp_path / "r.csv"
+    f.write_text("x_mm,y_mm,z_mm,i,j,k\n0,0,0,0,0,1\n50,0,0,0,0,1\n50,0,0,0,0.2,1\n"
+                 "50,50,0,0,0,1\n")
+    section = types.SimpleNamespace(generator="csv", file="r.csv", blend="circle",
+                                    blend_size_mm=5.0, drop_repeated_waypoints=True,
+                                    orientation_tolerance_deg=0.2)
+    with pytest.raises(InputError, match="waypoint 3 repeats the one before with a tool "
+                                         "vector 11.3 deg away"):
+        path_from_section(section, tmp_path)
