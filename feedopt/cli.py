@@ -153,4 +153,7 @@ def _dispatch(args: argparse.Namespace) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # Like the console script: ``os._exit`` with main's code. (``sys.exit`` lets the
+    # interpreter end itself by SIGINT when a Ctrl-C once passed through code that a C
+    # extension ran with ``PyRun_String``, even though main caught it and returned 130.)
+    console_main()
