@@ -82,3 +82,22 @@ def test_a_tool_axis_with_tool_vectors_is_refused(tmp_path):
     with pytest.raises(InputError, match="workpiece.tool_axis is for three-axis paths"):
         run_scenario(tmp_path / "s.yaml", tmp_path / "out", laws=["jerk"], progress=quiet,
                      report=False)
+
+
+def test_the_feed_lean_in_the_summary_is_that_of_the_exported_poses(run):
+    """summary.json's feed_lean_deg (the force model's feed along the tool axis) against the
+    exported poses: the angle between the TCP's direction of motion (finite differences of
+    X, Y, Z) and the plane across the tool axis (A, B, C turned into z by hand)."""
+    out, result = run
+    table = read_rsi_csv(out / "convex.csv")
+    xyz = np.column_stack([table.x_mm, table.y_mm, table.z_mm])
+    step = np.diff(xyz, axis=0)
+    moving = np.linalg.norm(step, axis=1) > 1e-4  # [mm]: away from the ends' rest
+    z = _z_of_abc(table.a_deg, table.b_deg, table.c_deg)
+    zm = 0.5 * (z[1:] + z[:-1])
+    t = step[moving] / np.linalg.norm(step[moving], axis=1, keepdims=True)
+    lean = np.degrees(np.arcsin(np.einsum("ij,ij->i", t, zm[moving])))
+    got = result.summary["scenario"]["orientation"]["feed_lean_deg"]
+    assert got[0] < -5.0 and got[1] > 5.0  # the tilt leans the feed out of that plane
+    assert got[0] == pytest.approx(lean.min(), abs=0.1)
+    assert got[1] == pytest.approx(lean.max(), abs=0.1)

@@ -22,6 +22,7 @@ Phases 4 and 5 of :func:`~feedopt.geometry.program_path.program_path`:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,8 +48,13 @@ from feedopt.geometry.transitions import TRANSITION, build_transitions
 G2_TOL = 1e-3
 #: transition shortening rounds before a junction is refused
 MAX_ROUNDS = 40
-#: transitions shorter than this [m] cannot be built reliably (arc-length tables)
-MIN_TRANSITION = 1e-7
+#: transitions shorter than this [m] are not built: the junction becomes a corner stop.
+#: Only near-reversals need them (a 179 deg kink at a 4 um tolerance: 0.1 um); such a
+#: hairpin turns by about pi over its length, a curvature over 6e6 1/m that allows a feed of
+#: sqrt(a / kappa) < 1 mm/s at 3 m/s^2 (the tool stops there anyway), and the rounding of
+#: its end curvatures breaks G2 at its ends (measured: 0.03 1/m at 0.1 um, 2e-3 at 0.2 um,
+#: 5e-4 at 0.65 um).
+MIN_TRANSITION = 5e-7
 #: samples (+1) along the replaced program at which its distance to the path is maximised
 PROGRAM_SAMPLES = 16
 #: samples of a size-1 blend for the nearest-point search (a smooth convex curve)
@@ -621,6 +627,9 @@ def fit_transitions(stretches0: list[Stretch], path0: Path, at: np.ndarray,
     else:
         over = active[np.maximum(dev[0], dev[1])[active] > tol[active]]
         failed.update({int(g): float(np.maximum(dev[0], dev[1])[g]) for g in over})
+    # built that short from the start (a near-reversal): a stop, deviation unknown (nan)
+    hairpin = np.unique(trans.junction[trans.length < MIN_TRANSITION])
+    failed.update({int(g): math.nan for g in hairpin if int(g) not in failed})
     alone = ~np.isin(corner.junction, treated)  # blends without transitions
     blend_j = corner.junction[alone]
     dev[:, blend_j] = corner.path_dev[alone], corner.program_dev[alone], corner.near[alone]

@@ -21,7 +21,14 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.process.coefficients import CuttingCoefficients
-from feedopt.process.general_forces import general_average
+from feedopt.process.engagement import Engagement
+from feedopt.process.forces import flat_side_scale
+from feedopt.process.general_forces import (
+    AVERAGE_SLICES,
+    general_average,
+    slice_average,
+    slice_engagement,
+)
 from feedopt.process.tool import Tool
 
 
@@ -57,6 +64,32 @@ def average_forces(
     diff = _antiderivative(ex, coeffs, c) - _antiderivative(st, coeffs, c)
     scale = tool.teeth * a / (2.0 * math.pi)
     return np.asarray(scale)[..., None] * diff
+
+
+def side_average(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Mean cutting force per unit feed per tooth [N/m] and edge force [N] of the side edges
+    over one revolution, each (n, 3), tool frame (the plunge column ignored): the closed
+    forms of :func:`average_forces` summed over a sample's pieces. A feed leaning along the
+    tool axis (``engagement.feed_axial``): a flat end mill's cutting part scaled by
+    :func:`~feedopt.process.forces.flat_side_scale`, a general cutter's exact mean of its
+    tilted slices (:func:`~feedopt.process.general_forces.slice_average`)."""
+    lean = engagement.feed_axial
+    if lean is not None and not tool.is_flat:
+        out = slice_average(tool, coeffs, slice_engagement(tool, engagement, AVERAGE_SLICES))
+        return out[:, 0:3], out[:, 4:7]
+    hull = engagement.hull_only()
+    edge = average_forces(tool, coeffs, hull.entry, hull.exit, hull.axial_depth, 0.0)
+    cut = average_forces(tool, coeffs, hull.entry, hull.exit, hull.axial_depth, 1.0) - edge
+    if engagement.pieces is not None:
+        p = engagement.pieces
+        pe = average_forces(tool, coeffs, p.entry, p.exit, p.axial_depth, 0.0)
+        pc = average_forces(tool, coeffs, p.entry, p.exit, p.axial_depth, 1.0) - pe
+        np.add.at(edge, p.sample, pe)
+        np.add.at(cut, p.sample, pc)
+    if lean is not None:
+        cut = cut * flat_side_scale(lean)[:, None]
+    return cut, edge
 
 
 def average_torque(

@@ -102,6 +102,11 @@ class Engagement:
         end edges cut nothing, 1 = a full plunge into material along the tool axis (no
         other value: a partial footprint is not modelled). None (or all 0) = no plunge;
         the force model adds the plunge force to whatever side engagement the sample has.
+    feed_axial : optional (n,) the unit feed direction's component along the tool axis,
+        ``f . k`` in [-1, 1] (the sine of the lean of a five-axis tool against its path;
+        + towards the spindle): the chip of a tilted tool
+        (:mod:`feedopt.process.general_forces`, "Feed along the axis"). None: the feed is
+        across the axis.
     """
 
     entry: np.ndarray
@@ -109,6 +114,7 @@ class Engagement:
     axial_depth: np.ndarray
     pieces: EngagementPieces | None = None
     plunge: np.ndarray | None = None
+    feed_axial: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         arrays = [np.asarray(getattr(self, k), dtype=float) for k in ("entry", "exit")]
@@ -128,6 +134,7 @@ class Engagement:
         object.__setattr__(self, "axial_depth", depth)
         validate_engagement(self)
         object.__setattr__(self, "plunge", _plunge_column(self.plunge, self.n))
+        object.__setattr__(self, "feed_axial", _feed_axial_column(self.feed_axial, self.n))
         p = self.pieces
         if p is not None:
             if p.count == 0:
@@ -161,8 +168,9 @@ class Engagement:
                 raise ValueError("Engagement.take needs increasing sample indices")
             pieces = self.pieces.select(keep)
         plunge = None if self.plunge is None else self.plunge[idx]
+        lean = None if self.feed_axial is None else self.feed_axial[idx]
         return Engagement(self.entry[idx], self.exit[idx], self.axial_depth[idx], pieces,
-                          plunge)
+                          plunge, lean)
 
     def without(self, drop: np.ndarray) -> Engagement:
         """This engagement with the samples where ``drop`` holds not cutting (in air, no
@@ -171,26 +179,42 @@ class Engagement:
         pieces = None if self.pieces is None else self.pieces.select(~drop, renumber=False)
         plunge = None if self.plunge is None else np.where(drop, 0.0, self.plunge)
         return Engagement(np.where(drop, 0.0, self.entry), np.where(drop, 0.0, self.exit),
-                          self.axial_depth, pieces, plunge)
+                          self.axial_depth, pieces, plunge, self.feed_axial)
 
     def hull_only(self) -> Engagement:
         """Every sample on one interval: the pieced samples not cutting (entry = exit = 0),
         without the plunge.
 
-        With ``pieces.as_engagement()``, the two parts the force model sums for the side
+        With :meth:`pieces_engagement`, the two parts the force model sums for the side
         (peripheral) edges."""
         return Engagement(np.where(self.pieced, 0.0, self.entry),
-                          np.where(self.pieced, 0.0, self.exit), self.axial_depth)
+                          np.where(self.pieced, 0.0, self.exit), self.axial_depth,
+                          feed_axial=self.feed_axial)
 
     def side_only(self) -> Engagement:
         """This engagement without its plunge (the side edges only)."""
         if self.plunge is None:
             return self
-        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces)
+        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces,
+                          feed_axial=self.feed_axial)
 
     def with_plunge(self, plunge: np.ndarray | None) -> Engagement:
         """This engagement with the plunge column ``plunge`` (n,) (0/1; None: no plunge)."""
-        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, plunge)
+        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, plunge,
+                          self.feed_axial)
+
+    def with_feed_axial(self, feed_axial: np.ndarray | None) -> Engagement:
+        """This engagement with the feed's component along the tool axis ``feed_axial`` (n,)
+        (None: across the axis)."""
+        return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, self.plunge,
+                          feed_axial)
+
+    def pieces_engagement(self) -> Engagement:
+        """The pieces as an engagement of one sample each
+        (:meth:`EngagementPieces.as_engagement`), with their samples' feed along the axis."""
+        p = self.pieces
+        lean = None if self.feed_axial is None else self.feed_axial[p.sample]
+        return Engagement(p.entry, p.exit, p.axial_depth, feed_axial=lean)
 
     @property
     def plunging(self) -> np.ndarray:
@@ -214,6 +238,22 @@ def _plunge_column(plunge, n: int) -> np.ndarray | None:
                          "cutting) or 1 (a full plunge into material); a partial footprint "
                          "is not modelled")
     return p.copy() if p.any() else None
+
+
+def _feed_axial_column(feed_axial, n: int) -> np.ndarray | None:
+    """The feed-along-axis column as a float (n,) array in [-1, 1], or None when absent or
+    all 0."""
+    if feed_axial is None:
+        return None
+    f = np.asarray(feed_axial, dtype=float)
+    if f.shape != (n,):
+        raise InputError(f"engagement: feed_axial has shape {f.shape}, expected ({n},)")
+    bad = ~np.isfinite(f) | (np.abs(f) > 1.0)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise InputError(f"engagement.feed_axial at sample {i} is {float(f[i])!r}: the feed "
+                         "direction's component along the tool axis must be in [-1, 1]")
+    return f.copy() if f.any() else None
 
 
 def validate_engagement(eng: Engagement, flute_length: float | None = None) -> None:

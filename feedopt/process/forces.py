@@ -199,6 +199,9 @@ def milling_forces(
         return _with_plunge(side, tool, coeffs, engagement.plunge)
     if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
         return _general_split(tool, coeffs, engagement, phi, int(axial_slices))
+    if engagement.feed_axial is not None:  # a leaning feed: the side edges' chip scaled
+        return _leaned(milling_forces(tool, coeffs, engagement.with_feed_axial(None), phi,
+                                      axial_slices), engagement.feed_axial)
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -347,6 +350,9 @@ def milling_forces_at(
     if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
         out = general_sums(tool, coeffs, phi, slice_engagement(tool, engagement, slices))
         return ForceSplit(np.array(phi), out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
+    if engagement.feed_axial is not None:  # a leaning feed: the side edges' chip scaled
+        return _leaned(milling_forces_at(tool, coeffs, engagement.with_feed_axial(None), phi,
+                                         axial_slices), engagement.feed_axial)
     if engagement.pieces is not None:  # sum of the pieces (EngagementPieces)
         pieces = engagement.pieces
         return _add_pieces(
@@ -386,6 +392,26 @@ def _sums_at(
         b *= da[sl, None]
         _project(b, coeffs, tool.diameter / 2.0, out[sl])
     return out
+
+
+def flat_side_scale(feed_axial: np.ndarray) -> np.ndarray:
+    """Per sample the factor on a flat end mill's cutting (chip) terms when its feed leans
+    by ``fz = f . k`` along the axis: the side edges (kappa = 90 deg) cut the chip
+    ``c fx sin(theta)``, ``fx = sqrt(1 - fz^2)`` (:mod:`feedopt.process.general_forces`,
+    "Feed along the axis", at kappa = 90 deg), exact where ``fz >= 0`` (the end edges move
+    away from the material). Where ``fz < 0`` the end edges cut the descent's chip too (not
+    modelled): there the whole feed is taken across the axis (factor 1, an upper bound of
+    the side edges' chip)."""
+    fz = np.asarray(feed_axial, dtype=float)
+    return np.where(fz < 0.0, 1.0, np.sqrt(np.maximum(0.0, 1.0 - fz * fz)))
+
+
+def _leaned(split: ForceSplit, feed_axial: np.ndarray) -> ForceSplit:
+    """``split`` of a flat end mill with its cutting terms scaled by
+    :func:`flat_side_scale` per sample (edge forces do not depend on the chip)."""
+    f = flat_side_scale(feed_axial)
+    return ForceSplit(split.angles, split.cutting * f[:, None, None], split.edge,
+                      split.cutting_torque * f[:, None], split.edge_torque)
 
 
 def _with_plunge(split: ForceSplit, tool: Tool, coeffs: CuttingCoefficients,
@@ -539,9 +565,11 @@ def _general_split(tool: Tool, coeffs: CuttingCoefficients, engagement: Engageme
     distinct engagements (without pieces) computed once, at the shared angles ``phi``."""
     n = engagement.n
     if engagement.pieces is None and n:
-        key = np.stack([engagement.entry, engagement.exit, engagement.axial_depth], axis=1)
+        lean = np.zeros(n) if engagement.feed_axial is None else engagement.feed_axial
+        key = np.stack([engagement.entry, engagement.exit, engagement.axial_depth, lean],
+                       axis=1)
         uniq, inverse = np.unique(key, axis=0, return_inverse=True)
-        rows = Engagement(uniq[:, 0], uniq[:, 1], uniq[:, 2])
+        rows = Engagement(uniq[:, 0], uniq[:, 1], uniq[:, 2], feed_axial=uniq[:, 3])
         inverse = inverse.reshape(-1)
     else:
         rows, inverse = engagement, np.arange(n)

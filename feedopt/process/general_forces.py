@@ -126,7 +126,8 @@ def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEn
     if engagement.pieces is None:
         sliced = profile_slices(tool.profile, engagement.axial_depth, slices)
         lo, hi = slice_intervals(radius, sliced, engagement.entry, engagement.exit)
-        return SliceEngagement(sliced, lo[..., None], hi[..., None])
+        return _leaning(SliceEngagement(sliced, lo[..., None], hi[..., None]),
+                        engagement.feed_axial)
     entry, exit_, depth = _padded_pieces(engagement)  # (n, W)
     # sliced over the deepest piece (the summary depth is that already, from the stock)
     sliced = profile_slices(tool.profile, np.maximum(engagement.axial_depth, depth.max(axis=1)),
@@ -137,7 +138,30 @@ def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEn
         deep = sliced.height < depth[:, w, None]
         los.append(np.where(deep, lo, 0.0))
         his.append(np.where(deep, hi, 0.0))
-    return SliceEngagement(sliced, *_merged(np.stack(los, axis=2), np.stack(his, axis=2)))
+    return _leaning(SliceEngagement(sliced, *_merged(np.stack(los, axis=2),
+                                                     np.stack(his, axis=2))),
+                    engagement.feed_axial)
+
+
+def _leaning(se: SliceEngagement, feed_axial: np.ndarray | None) -> SliceEngagement:
+    """``se`` for a feed leaning by ``fz`` (n,) along the tool axis (None: ``se``): the feed
+    ``(fx, fz)``, ``fx = sqrt(1 - fz^2)``, and every interval (within [0, pi]) cut to the
+    front of the tool, where the chip ``c (fx sin(kappa) sin(theta) - fz cos(kappa))`` is
+    positive (module docstring): ``sin(theta) > t = fz cos(kappa) / (fx sin(kappa))``, i.e.
+    theta in ``[arcsin t, pi - arcsin t]`` for 0 < t < 1, all of [0, pi] for t <= 0, nothing
+    for t >= 1."""
+    if feed_axial is None:
+        return se
+    fz = np.asarray(feed_axial, dtype=float)
+    fx = np.sqrt(np.maximum(0.0, 1.0 - fz * fz))
+    s = se.sliced
+    num, den = fz[:, None] * s.cos_kappa, fx[:, None] * s.sin_kappa
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(den > 0.0, num / den, np.where(num > 0.0, np.inf, -np.inf))
+    a = np.arcsin(np.clip(t, 0.0, 1.0))[..., None]
+    lo, hi = np.maximum(se.lo, a), np.minimum(se.hi, np.pi - a)
+    keep = (lo < hi) & (t < 1.0)[..., None]
+    return SliceEngagement(s, np.where(keep, lo, 0.0), np.where(keep, hi, 0.0), fx, fz)
 
 
 def _padded_pieces(engagement: Engagement) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -298,6 +322,25 @@ def general_critical_angles(tool: Tool, se: SliceEngagement) -> np.ndarray:
 
 #: Profile slices of the revolution averages (exact in the angle; the profile's quadrature).
 AVERAGE_SLICES = 200
+
+
+def slice_average(tool: Tool, coeffs: CuttingCoefficients, se: SliceEngagement
+                  ) -> np.ndarray:
+    """Mean over one revolution of ``[cut x, y, z, torque, edge x, y, z, torque]`` (n, 8) for
+    the slice engagement ``se`` (a leaning feed included): ``N / (2 pi)`` times each slice's
+    exact integral of ``[1, sin, cos, sin cos, sin^2]`` of theta over its intervals, mapped by
+    the slice's matrix (:func:`general_sums`; the helix lag drops out of a whole
+    revolution)."""
+    def prim(t: np.ndarray) -> np.ndarray:  # (..., 5): int of 1, s, c, s c, s^2
+        s = np.sin(t)
+        return np.stack([t, -np.cos(t), s, 0.5 * s * s, 0.5 * t - 0.25 * np.sin(2.0 * t)],
+                        axis=-1)
+
+    weights = _slice_matrices(se.sliced, coeffs)
+    if se.feed_x is not None:
+        weights = _tilted_matrices(weights, se, coeffs)
+    ints = (prim(se.hi) - prim(se.lo)).sum(axis=2)  # (n, L, 5)
+    return tool.teeth / _TWO_PI * np.einsum("nlb,nlbo->no", ints, weights)
 
 
 def general_average(tool: Tool, coeffs: CuttingCoefficients,

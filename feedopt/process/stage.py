@@ -171,29 +171,40 @@ def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients
     return engagement.with_plunge(None), mask, [warning]
 
 
-#: a five-axis path whose feed leaves the plane across the tool axis by more than this [deg]
-#: on a cutting sample gets a note (the force model takes the feed across the axis)
-INCLINED_FEED_DEG = 5.0
+#: a five-axis path whose feed descends along the tool axis by more than this [deg] while a
+#: cutter with a flat bottom cuts gets a note (the end edges' chip is not modelled)
+DESCENT_NOTE_DEG = 5.0
 
 
-def inclined_feed_notes(samples, cutting: np.ndarray) -> list[str]:
-    """A note when a five-axis path feeds partly along the tool axis while cutting (a lead
-    or tilt against the path, a ramp): the model's chip is the feed's, across the axis, on the
-    side edges (at most 1 / cos of the angle too large: conservative), and the bottom edge's
-    chip from the axial part is not modelled."""
+def feed_along_axis(samples, cutting: np.ndarray) -> np.ndarray | None:
+    """Per sample the unit feed direction's component along the tool axis ``t . k`` (the
+    sine of the lean: a lead or tilt against the path, a ramp) on a five-axis path's cutting
+    samples, 0 elsewhere (:attr:`Engagement.feed_axial`); None on a three-axis path (the
+    feed taken across the axis, as before)."""
     if samples.axis is None or not cutting.any():
+        return None
+    along = np.clip(np.einsum("ij,ij->i", samples.tangent, samples.axis), -1.0, 1.0)
+    return np.where(cutting, along, 0.0)
+
+
+def descent_notes(samples, feed_axial: np.ndarray | None, tool) -> list[str]:
+    """A note where a cutter with a flat bottom (a flat or bull end mill: its end edges) cuts
+    while the feed descends along its axis by more than :data:`DESCENT_NOTE_DEG`: the side
+    edges' chip of the leaning feed is modelled, the end edges' is not (a flat end mill's
+    side edges then take the whole feed: :func:`~feedopt.process.forces.flat_side_scale`)."""
+    if feed_axial is None or tool.profile.r0 <= 0.0:
         return []
-    along = np.abs(np.einsum("ij,ij->i", samples.tangent, samples.axis))
-    angle = np.degrees(np.arcsin(np.clip(np.where(cutting, along, 0.0), 0.0, 1.0)))
+    angle = np.degrees(np.arcsin(np.clip(-feed_axial, 0.0, 1.0)))
     k = int(np.argmax(angle))
-    if angle[k] <= INCLINED_FEED_DEG:
+    if angle[k] <= DESCENT_NOTE_DEG:
         return []
-    return [f"the feed leans out of the plane across the tool axis by up to {angle[k]:.3g} deg "
-            f"while cutting ({int(np.count_nonzero(angle > INCLINED_FEED_DEG))} sample(s) over "
-            f"{INCLINED_FEED_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): the force "
-            "model takes the whole feed across the axis on the side edges (up to "
-            f"{1 / np.cos(np.radians(angle[k])):.3g} x the chip there: conservative) and does "
-            "not model the bottom edge's chip from the part along the axis"]
+    side = (" (the side edges take the whole feed there: an upper bound of their chip)"
+            if tool.is_flat else "")
+    return [f"the feed descends along the tool axis by up to {angle[k]:.3g} deg while cutting "
+            f"({int(np.count_nonzero(angle > DESCENT_NOTE_DEG))} sample(s) over "
+            f"{DESCENT_NOTE_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): the end "
+            f"edges of the {tool.shape.value} cutter's flat bottom cut a chip there that the "
+            f"force model does not have{side}"]
 
 
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
@@ -234,6 +245,8 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                                         scenario.path.stock_top_mm * MM, tool, source)
     engagement, unmodelled, plunge_notes = unmodelled_plunges(
         engagement, coefficients, moves, samples, scenario.material, tool)
+    lean = feed_along_axis(samples, engagement.exit > engagement.entry)
+    engagement = engagement.with_feed_axial(lean)
     warnings = check_path_radius(samples, segment_names, 0.5 * tool.diameter,
                                  cutting=engagement.exit > engagement.entry,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis)
@@ -246,7 +259,7 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     if material is not None:
         warnings += material.warnings
     warnings += plunge_notes
-    warnings += inclined_feed_notes(samples, engagement.exit > engagement.entry)
+    warnings += descent_notes(samples, engagement.feed_axial, tool)
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))
         warnings.append(f"the stock reaches above the flutes of the tool at "

@@ -174,17 +174,23 @@ def scenario_summary(prepared: Prepared) -> dict:
 
 def orientation_summary(prepared: Prepared) -> dict | None:
     """A five-axis path's tool vectors in summary.json: how many, the angle tolerance and the
-    largest deviation of the blends, the tilt from the workpiece's z, the orientation limits;
-    None on three-axis paths."""
+    largest deviation of the blends, the tilt from the workpiece's z, the range of the feed's
+    lean along the tool axis while cutting (+: towards the spindle, the force model's
+    ``Engagement.feed_axial``), the orientation limits; None on three-axis paths."""
     o = prepared.path.orientation
     if o is None:
         return None
     sc, samples = prepared.scenario, prepared.samples
     tilt = np.degrees(np.arccos(np.clip(samples.axis[:, 2], -1.0, 1.0)))
+    lean = prepared.process.engagement.feed_axial  # the force model's, on cutting samples
+    cutting = prepared.process.engagement.exit > prepared.process.engagement.entry
+    lean_deg = (np.degrees(np.arcsin(lean[cutting])) if lean is not None and cutting.any()
+                else np.zeros(1))
     return {"tool_vectors": int(o.knots.s.size), "blended": int(np.count_nonzero(o.half_window)),
             "tolerance_deg": sc.path.orientation_tolerance_deg,
             "largest_deviation_deg": float(np.degrees(o.deviation().max(initial=0.0))),
             "tilt_from_workpiece_z_deg": [float(tilt.min()), float(tilt.max())],
+            "feed_lean_deg": [float(lean_deg.min()), float(lean_deg.max())],
             "rate_limit_deg_s": sc.limits.orientation_rate_deg_s,
             "acceleration_limit_deg_s2": sc.limits.orientation_acceleration_deg_s2}
 

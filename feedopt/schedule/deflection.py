@@ -21,7 +21,7 @@ import numpy as np
 
 from feedopt.errors import InputError
 from feedopt.parallel import for_each_chunk
-from feedopt.process.averages import average_forces
+from feedopt.process.averages import side_average
 from feedopt.process.forces import (
     CuttingCoefficients,
     Engagement,
@@ -116,10 +116,10 @@ class DeflectionModel:
         if e.pieces is not None:
             return None
         rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index],
-                         _plunge_of(e)[index]], axis=1)
+                         _plunge_of(e)[index], _lean_of(e)[index]], axis=1)
         unique, inverse = np.unique(rows, axis=0, return_inverse=True)
         return (Engagement(entry=unique[:, 0], exit=unique[:, 1], axial_depth=unique[:, 2],
-                           plunge=unique[:, 3]), inverse.ravel())
+                           plunge=unique[:, 3], feed_axial=unique[:, 4]), inverse.ravel())
 
     def chunk_forces(self, sl: slice | np.ndarray) -> ChunkForces:
         """Forces of samples ``sl`` on the angle grid and at their critical angles (where a
@@ -204,7 +204,8 @@ class DeflectionModel:
         eng = self.engagement_slice(sl)
         if eng.pieces is None and eng.n > 1:
             first, row = _same_rows(np.column_stack([eng.entry, eng.exit, eng.axial_depth,
-                                                     _plunge_of(eng), angles]))
+                                                     _plunge_of(eng), _lean_of(eng),
+                                                     angles]))
             if first.size <= eng.n // 2:
                 split = milling_forces_at(
                     self.tool, self.coefficients, eng.take(first), np.asarray(angles)[first],
@@ -350,21 +351,13 @@ class DeflectionModel:
         :func:`feedopt.process.averages.average_forces`), summed over a sample's pieces, plus
         the mean plunge force (:func:`feedopt.process.plunge.plunge_mean`):
         the exact mean of the slice model (over a whole revolution the helix lag does not
-        matter), so ``d(phi) - mean d`` averages to zero over the revolution.
+        matter), so ``d(phi) - mean d`` averages to zero over the revolution. A feed leaning
+        along the tool axis: a flat end mill's cutting part scaled by
+        :func:`~feedopt.process.forces.flat_side_scale`, a general cutter's mean of its
+        tilted slices (:func:`~feedopt.process.averages.side_average`).
         """
         eng = self.engagement_slice(sl)
-        hull = eng.hull_only()
-        edge = average_forces(self.tool, self.coefficients, hull.entry, hull.exit,
-                              hull.axial_depth, 0.0)
-        cut = average_forces(self.tool, self.coefficients, hull.entry, hull.exit,
-                             hull.axial_depth, 1.0) - edge
-        if eng.pieces is not None:
-            p = eng.pieces
-            pe = average_forces(self.tool, self.coefficients, p.entry, p.exit, p.axial_depth, 0.0)
-            pc = average_forces(self.tool, self.coefficients, p.entry, p.exit, p.axial_depth,
-                                1.0) - pe
-            np.add.at(edge, p.sample, pe)
-            np.add.at(cut, p.sample, pc)
+        cut, edge = side_average(self.tool, self.coefficients, eng)
         if eng.plunge is not None:  # the end edges of a plunge: constant thrust
             if self.coefficients.plunge is None:
                 raise InputError("the path plunges along the tool axis, but the cutting "
@@ -592,6 +585,11 @@ _HASH_WEIGHTS = np.random.default_rng(20261202).uniform(0.5, 1.5, 4096)
 def _plunge_of(e: Engagement) -> np.ndarray:
     """The plunge column of ``e`` (zeros without plunges), to key distinct rows on."""
     return e.plunge if e.plunge is not None else np.zeros(e.n)
+
+
+def _lean_of(e: Engagement) -> np.ndarray:
+    """The feed-along-axis column of ``e`` (zeros without), to key distinct rows on."""
+    return e.feed_axial if e.feed_axial is not None else np.zeros(e.n)
 
 
 def _same_rows(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

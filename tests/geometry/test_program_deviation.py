@@ -107,6 +107,9 @@ def _check(kind: str, turn_deg: float, radius: float, tol_mm: float) -> None:
     rep = out.junctions
     j = 1  # plunge->A, A->B, B->retract
     assert np.all(rep.deviation <= rep.tolerance * (1 + 1e-9))
+    if rep.treatment[j] == Treatment.STOP.value:  # a hairpin transition (a near-reversal)
+        _check_hairpin_stop(out, program, tol_mm)
+        return
     region = np.nansum([rep.transition_length[j], 2 * np.nan_to_num(rep.size[j])]) / MM
     assert region < 0.25 * W  # the modified stretch lies well inside the brute-force window
     path_dev, prog_dev = _brute_force(out, program, max(region, 2 * rep.deviation[j] / MM))
@@ -120,6 +123,27 @@ def _check(kind: str, turn_deg: float, radius: float, tol_mm: float) -> None:
     if rep.treatment[j] != Treatment.STOP.value:
         # at a sharp corner it is the program that is farther from the path
         assert rep.program_deviation[j] > rep.path_deviation[j]
+
+
+def _check_hairpin_stop(out, program, tol_mm: float) -> None:
+    """A junction turning back so far that its transition would be shorter than
+    junctions.MIN_TRANSITION: the tool stops at the programmed corner, the path keeps it."""
+    from feedopt.geometry.junctions import MIN_TRANSITION
+
+    corner = np.array(program.moves[int(np.flatnonzero(out.moves.line == out.moves.line[2])[0])
+                                    ].start)
+    assert out.stops.kind == ("corner",)
+    assert np.allclose(out.path.evaluate(out.stops.s).position[0] / MM, corner, atol=1e-9)
+    # the cut points tol back along both moves lie 2 tol sin((pi - turn) / 2) apart
+    turn = np.arccos(np.clip(np.dot(*_unit_tangents(out, out.stops.s[0])), -1.0, 1.0))
+    assert 2 * tol_mm * MM * np.sin(0.5 * (np.pi - turn)) < 2 * MIN_TRANSITION
+    assert any("hairpin" in w for w in out.warnings)
+
+
+def _unit_tangents(out, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The path's unit tangents just before and after ``s``."""
+    return (out.path.evaluate(np.array([s - 1e-9])).tangent[0],
+            out.path.evaluate(np.array([s + 1e-9])).tangent[0])
 
 
 @settings(max_examples=20, deadline=None)

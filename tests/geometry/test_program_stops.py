@@ -318,6 +318,35 @@ def test_a_junction_no_transition_fits_becomes_a_corner_stop(monkeypatch):
                                                    "line 4")
 
 
+def test_a_near_reversal_whose_transition_would_be_a_hairpin_is_a_corner_stop():
+    """A 179 deg kink between two arcs at a 4 um tolerance: the transition within it would
+    be about 0.1 um long (the two cut points c = 4 um back along nearly opposite directions
+    are 2 c sin(0.5 deg) = 0.07 um apart), shorter than junctions.MIN_TRANSITION (0.5 um): a corner
+    stop with its own note, the path G2 elsewhere."""
+    from feedopt.gcode import parse_gcode
+    from feedopt.geometry.continuity import continuity_report
+    from feedopt.geometry.junctions import MIN_TRANSITION
+
+    heading = math.radians(20.0)  # after a G3 of R19 sweeping 20 deg from heading 0
+    x, y = 19.0 * math.sin(heading), 19.0 - 19.0 * math.cos(heading)
+    back = heading + math.radians(179.0)  # then a G2 of R1 starting 179 deg around
+    cx, cy = x + math.sin(back), y - math.cos(back)
+    a1 = math.atan2(y - cy, x - cx) - math.radians(20.0)
+    text = ("G21 G17 G90 G94\nG0 X0 Y0 Z5.\nG1 Z-1. F300.\n"
+            f"G3 X{x:.6f} Y{y:.6f} I0 J19. F254.\n"
+            f"G2 X{cx + math.cos(a1):.6f} Y{cy + math.sin(a1):.6f} I{cx - x:.6f} "
+            f"J{cy - y:.6f}\nG0 Z5.\nM30\n")
+    out = program_path(parse_gcode(text, "h.nc"), replace(OPTS, tolerance=0.004 * MM))
+    assert out.stops.kind == ("corner",) and list(out.stops.line) == [5]
+    assert np.allclose(out.path.evaluate(out.stops.s).position / MM, [[x, y, -1]], atol=1e-9)
+    rep = continuity_report(out.path)
+    away = ~np.isin(rep.s, out.stops.s)
+    assert rep.g2[away].max(initial=0) < 1e-3  # [1/m]
+    notes = [w for w in out.warnings if "hairpin" in w]
+    assert len(notes) == 1 and f"shorter than {MIN_TRANSITION / MM:g} mm" in notes[0]
+    assert notes[0].startswith("h.nc line 5: the junction with line 4 turns back")
+
+
 # --- sampling ----------------------------------------------------------------------------
 
 

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from feedopt.gcode import parse_gcode
@@ -64,12 +64,10 @@ def _distance_to_program(pts_mm: np.ndarray, program) -> np.ndarray:
     return best
 
 
-# Known defect (pre-existing at a4e0075, order-dependent in the whole suite): a line, a
-# 179 deg kink and an arc at a 2 um tolerance get a 46 nm G2 transition, shorter than
-# junctions.MIN_TRANSITION, which leaves a curvature jump of 0.018 1/m; making such
-# transitions corner stops was not enough (another example then fails). Still run, reported
-# as xfail until the program-path smoothing is mended (issue 35's notes).
-@pytest.mark.xfail(strict=False, reason="near-reversal transitions below MIN_TRANSITION")
+# A 179 deg kink between arcs at a 4 um tolerance: its G2 transition would be 0.1 um long (a
+# hairpin whose end curvatures rounding broke by 0.03 1/m); now a corner stop.
+@example(moves=[("line", 1.0, 0.0, 20.0), ("line", 4.5, 0.0, 40.0), ("G3", 19.0, 0.0, 20.0),
+                ("G2", 1.0, 179.0, 20.0)], tol_um=4.0)
 @given(moves=st.lists(move, min_size=1, max_size=6), tol_um=st.floats(2.0, 50.0))
 def test_random_programs_are_g2_and_within_tolerance(moves, tol_um):
     program = parse_gcode(_program(moves), "fuzz.nc")

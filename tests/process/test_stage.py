@@ -1,0 +1,59 @@
+"""The process stage's five-axis feed lean: the feed's component along the tool axis handed to
+the force model, and the note where a flat-bottomed cutter descends into the material."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from feedopt.process.cutter import CutterShape
+from feedopt.process.stage import DESCENT_NOTE_DEG, descent_notes, feed_along_axis
+from feedopt.process.tool import Tool
+
+MM = 1e-3
+
+
+def _samples(lean_deg: np.ndarray, axis: bool = True) -> SimpleNamespace:
+    """Samples feeding along +x with the tool axis leaning by ``lean_deg`` towards the feed
+    (a lead angle: k = (sin, 0, cos)), written out by hand."""
+    lean = np.radians(np.asarray(lean_deg, dtype=float))
+    n = lean.size
+    tangent = np.tile([1.0, 0.0, 0.0], (n, 1))
+    k = np.column_stack([np.sin(lean), np.zeros(n), np.cos(lean)])
+    return SimpleNamespace(s=np.arange(n) * MM, tangent=tangent, axis=k if axis else None)
+
+
+def test_the_feed_along_the_axis_is_the_sine_of_the_lead_on_cutting_samples():
+    lean = np.array([10.0, -20.0, 35.0, 5.0])
+    cutting = np.array([True, True, False, True])
+    got = feed_along_axis(_samples(lean), cutting)
+    assert np.allclose(got, [math.sin(math.radians(10)), -math.sin(math.radians(20)), 0.0,
+                             math.sin(math.radians(5))], rtol=0, atol=1e-15)
+    assert feed_along_axis(_samples(lean, axis=False), cutting) is None  # three axes
+    assert feed_along_axis(_samples(lean), np.zeros(4, dtype=bool)) is None
+
+
+FLAT = Tool("flat", 10 * MM, 3, math.radians(30), 20 * MM)
+BALL = Tool("ball", 10 * MM, 2, math.radians(30), 20 * MM, shape=CutterShape.BALL,
+            corner_radius=5 * MM)
+BULL = Tool("bull", 10 * MM, 4, math.radians(30), 20 * MM, shape=CutterShape.BULL,
+            corner_radius=1 * MM)
+
+
+@pytest.mark.parametrize(("tool", "noted"), [(FLAT, True), (BULL, True), (BALL, False)])
+def test_a_descent_is_noted_for_cutters_with_a_flat_bottom(tool, noted):
+    lean = np.array([0.0, -3.0, -12.0, -7.0, 20.0])
+    samples = _samples(lean)
+    fz = feed_along_axis(samples, np.ones(lean.size, dtype=bool))
+    notes = descent_notes(samples, fz, tool)
+    assert bool(notes) is noted
+    if noted:
+        assert "by up to 12 deg" in notes[0] and "2 sample(s) over 5 deg" in notes[0]
+        assert "s = 2.00 mm" in notes[0]
+        assert ("upper bound" in notes[0]) is tool.is_flat
+    # a rising feed (a lead towards the feed) only: the end edges leave the material
+    rising = _samples(np.array([DESCENT_NOTE_DEG + 10.0, 30.0]))
+    assert descent_notes(rising, feed_along_axis(rising, np.ones(2, dtype=bool)), tool) == []
