@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from pathlib import Path as PathlibPath
 
 import numpy as np
@@ -146,6 +147,29 @@ def is_program(name: str) -> bool:
     return name.lower().endswith(PROGRAM_SUFFIXES + APT_SUFFIXES)
 
 
+_APT_LINE = re.compile(r"\s*(GOTO|FEDRAT|RAPID|MULTAX|UNITS|FROM|CIRCLE|LOADTL|CUTTER|TLAXIS"
+                       r"|SPINDL|PARTNO)\s*/", re.IGNORECASE)
+_GCODE_LINE = re.compile(r"\s*(N\d+\s*)?[GM]\d+(\.\d+)?(\s|[A-Z]|$)", re.IGNORECASE)
+
+
+def refuse_misnamed_program(name: str, lines: int = 50) -> None:
+    """InputError when a file read as a waypoint CSV (by its suffix) holds an APT CL file or
+    a G-code program (one of its first ``lines`` lines is a statement of one): name its line
+    and the suffixes that would read it."""
+    try:
+        with open(name, encoding="utf-8", errors="replace") as f:
+            head = [f.readline() for _ in range(lines)]
+    except OSError:
+        return  # the CSV reader says what is wrong with the file
+    for number, text in enumerate(head, start=1):
+        kind = ("an APT CL statement", APT_SUFFIXES) if _APT_LINE.match(text) else (
+            ("a G-code block", PROGRAM_SUFFIXES) if _GCODE_LINE.match(text) else None)
+        if kind is not None:
+            raise InputError(f"{name} is read as a waypoint CSV (by its name), but its line "
+                             f"{number} ({text.strip()[:40]!r}) is {kind[0]}: give the file "
+                             f"one of the suffixes {', '.join(kind[1])} to read it as one")
+
+
 def run(args: argparse.Namespace) -> int:
     if is_program(args.waypoints):
         return _run_program(args)
@@ -153,6 +177,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--tool, --stock-box and --stock-from-program check a G-code program "
                          f"against its stock; {args.waypoints} is not a program (.nc, .ngc, "
                          "...): use feedopt validate on a scenario with a stock")
+    if args.waypoints not in BUILTIN:
+        refuse_misnamed_program(args.waypoints)
     size, spacing = _check_args(args)
     w = BUILTIN[args.waypoints]() if args.waypoints in BUILTIN else read_waypoints_csv(
         args.waypoints)

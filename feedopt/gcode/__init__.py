@@ -6,7 +6,7 @@ is an :class:`~feedopt.errors.InputError` naming the line, the N number and the 
 """
 
 from feedopt.gcode.apt import parse_apt, read_apt
-from feedopt.gcode.interpreter import MM_PER_INCH, parse_gcode, read_gcode
+from feedopt.gcode.interpreter import parse_gcode, read_gcode
 from feedopt.gcode.moves import (
     SAME_POINT_MM,
     Move,
@@ -20,6 +20,7 @@ from feedopt.gcode.moves import (
     ToolShape,
     sample_move,
 )
+from feedopt.gcode.resolution import MM_PER_INCH
 
 __all__ = [
     "MM_PER_INCH",

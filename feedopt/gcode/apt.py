@@ -55,7 +55,6 @@ from pathlib import Path
 from typing import Literal
 
 from feedopt.errors import InputError
-from feedopt.gcode.interpreter import MM_PER_INCH
 from feedopt.gcode.moves import (
     SAME_POINT_MM,
     Move,
@@ -69,6 +68,12 @@ from feedopt.gcode.moves import (
     ToolShape,
 )
 from feedopt.gcode.notes import line_list
+from feedopt.gcode.resolution import (
+    MM_PER_INCH,
+    radius_tolerance_mm,
+    resolution_mm,
+    unit_scale,
+)
 from feedopt.textio import max_bytes_for, read_user_bytes
 
 Vec3 = tuple[float, float, float]
@@ -77,8 +82,6 @@ Vec3 = tuple[float, float, float]
 MAX_ABS_VALUE = 1e9
 #: More decimals than this say nothing about a post's rounding (float noise): capped.
 MAX_DECIMALS = 12
-#: Largest difference of two radii that rounding to one unit can make, in units (as G-code).
-ROUNDING_RADIUS_UNITS = 2.0 * math.sqrt(2.0)
 #: Most lines one arc about a skew axis is cut into; more is refused.
 MAX_ARC_LINES = 100_000
 #: A CIRCLE axis is along X, Y or Z when its other components are at most this.
@@ -497,18 +500,14 @@ class _Reader:
 
     @property
     def _scale(self) -> float:
-        return MM_PER_INCH if self.s.inch else 1.0
+        return unit_scale(self.s.inch)
 
     def resolution_mm(self) -> float | None:
         """One unit of the last decimal of the coordinates read so far [mm]."""
-        if self.s.decimals is None:
-            return None
-        return 10.0 ** -self.s.decimals * self._scale
+        return resolution_mm(self.s.decimals, self.s.inch)
 
     def _radius_tol(self) -> float:
-        res = self.resolution_mm()
-        return max(self.opt.arc_tolerance_mm, 0.0 if res is None else
-                   ROUNDING_RADIUS_UNITS * res)
+        return radius_tolerance_mm(self.opt.arc_tolerance_mm, self.resolution_mm())
 
     def _count(self, tokens: tuple[str, ...]) -> None:
         """Record the decimals of coordinates ``tokens`` (for the resolution)."""

@@ -71,12 +71,13 @@ from feedopt.gcode.moves import (
     StopKind,
 )
 from feedopt.gcode.notes import Notes
+from feedopt.gcode.resolution import (
+    radius_tolerance_mm,
+    resolution_mm,
+    unit_scale,
+)
 from feedopt.textio import read_user_text
 
-MM_PER_INCH = 25.4
-#: Largest difference of two radii that rounding to one unit can make, in units: each end
-#: point and the centre are off by up to half a unit in both plane axes (sqrt(2) / 2 each).
-ROUNDING_RADIUS_UNITS = 2.0 * math.sqrt(2.0)
 #: A G4 P at least this large (and whole) is probably milliseconds when read as seconds.
 DWELL_P_HINT = 100.0
 _NAN3 = (math.nan, math.nan, math.nan)
@@ -193,19 +194,15 @@ class _Interpreter:
 
     @property
     def _scale(self) -> float:
-        return MM_PER_INCH if self.s.inch else 1.0
+        return unit_scale(self.s.inch)
 
     def resolution_mm(self) -> float | None:
         """One unit of the last decimal of the coordinates read so far [mm]."""
-        if self.got.decimals is None:
-            return None
-        return 10.0 ** -self.got.decimals * self._scale
+        return resolution_mm(self.got.decimals, self.s.inch)
 
     def arc_tolerance_mm(self) -> float:
         """The radius tolerance in force: the option, or the rounding the resolution allows."""
-        res = self.resolution_mm()
-        rounding = 0.0 if res is None else ROUNDING_RADIUS_UNITS * res
-        return max(self.opt.arc_tolerance_mm, rounding)
+        return radius_tolerance_mm(self.opt.arc_tolerance_mm, self.resolution_mm())
 
     def _tolerance_text(self, tol: float) -> str:
         if tol <= self.opt.arc_tolerance_mm:

@@ -41,3 +41,19 @@ def test_csv_vectors_round_trip(tmp_path):
 def test_bad_orientation_tolerance_is_refused_before_reading(tmp_path, capsys):
     assert main(["path", str(tmp_path / "missing.cls"), "--orientation-tolerance", "nan"]) == 2
     assert "--orientation-tolerance must be in (0, 10] deg" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("text", "line", "kind"), [
+    ("$$ CL file\nPARTNO/x\nGOTO/0,0,5,0,0,1\n", 2, "an APT CL statement"),
+    ("(header)\nN10 G21 G90\nG1 X1 Y1 F100\n", 2, "a G-code block"),
+    ("x_mm,y_mm\n0,0\ngoto/1,2,3\n", 3, "an APT CL statement"),
+])
+def test_a_program_in_a_file_named_like_waypoints_is_named(tmp_path, capsys, text, line, kind):
+    """A CL file or G-code program saved as .txt: the message names its line and the
+    suffixes that read it, instead of asking for a blend size; nothing is written."""
+    src = tmp_path / "prog.txt"
+    src.write_text(text)
+    assert main(["path", str(src), "--out", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert f"its line {line}" in err and kind in err and "--radius" not in err
+    assert not (tmp_path / "o.csv").exists()
