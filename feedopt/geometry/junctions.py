@@ -48,13 +48,9 @@ from feedopt.geometry.transitions import TRANSITION, build_transitions
 G2_TOL = 1e-3
 #: transition shortening rounds before a junction is refused
 MAX_ROUNDS = 40
-#: transitions shorter than this [m] are not built: the junction becomes a corner stop.
-#: Only near-reversals need them (a 179 deg kink at a 4 um tolerance: 0.1 um); such a
-#: hairpin turns by about pi over its length, a curvature over 6e6 1/m that allows a feed of
-#: sqrt(a / kappa) < 1 mm/s at 3 m/s^2 (the tool stops there anyway), and the rounding of
-#: its end curvatures breaks G2 at its ends (measured: 0.03 1/m at 0.1 um, 2e-3 at 0.2 um,
-#: 5e-4 at 0.65 um).
-MIN_TRANSITION = 5e-7
+#: transitions shorter than this [m] cannot be built reliably (arc-length tables): the
+#: junction becomes a corner stop
+MIN_TRANSITION = 1e-7
 #: samples (+1) along the replaced program at which its distance to the path is maximised
 PROGRAM_SAMPLES = 16
 #: samples of a size-1 blend for the nearest-point search (a smooth convex curve)
@@ -635,11 +631,23 @@ def fit_transitions(stretches0: list[Stretch], path0: Path, at: np.ndarray,
     dev[:, blend_j] = corner.path_dev[alone], corner.program_dev[alone], corner.near[alone]
     stretches, first = _with_transitions(stretches0, trans)
     path = stretch_path(stretches)
+    failed.update(_not_built_g2(path, stretches, treated, failed))
     s_lo = path.segment_start
     return Fitted(stretches, path, {int(j): (float(dev[0, j]), float(dev[1, j]),
                                              float(s_lo[first[int(j)]] + dev[2, j]))
                                     for j in np.concatenate([treated, blend_j]).tolist()},
                   failed)
+
+
+def _not_built_g2(path: Path, stretches: list[Stretch], treated: np.ndarray,
+                  failed: dict[int, float]) -> dict[int, float]:
+    """The treated junctions (not yet failed) whose transition's ends are still not G2 as
+    built (:func:`non_g2`: a curvature jump over :data:`G2_TOL`), each with nan: at a
+    near-reversal the transition is a hairpin of a fraction of a micrometre turning by about
+    pi, whose end curvatures floating point cannot match (0.01-0.04 1/m measured at 0.1-0.5
+    um); such a junction becomes a corner stop (the tool all but stops there anyway)."""
+    bad = {junction_of(stretches, int(i)) for i in non_g2(path, stretches).tolist()}
+    return {j: math.nan for j in sorted(bad) if j in set(treated.tolist()) and j not in failed}
 
 
 def _with_transitions(stretches0: list[Stretch], trans: Transitions

@@ -145,7 +145,7 @@ def program_path(program: Program, opts: ProgramPathOptions) -> ProgramPath:
     last = np.array([_last_move(p) for p in pieces])
     points += reversal_points(linked, last, turn)
     built = _assemble(pieces, base, kind, opts, tol, turn, stop_junctions(last, points))
-    corner_points, corner_notes = corner_stops(linked, last, built.failed, tol, MIN_TRANSITION)
+    corner_points, corner_notes = corner_stops(linked, last, built.failed, tol)
     points += corner_points
     moves = _move_table(linked, pieces, built.stretches, built.path, built.dev, program_move)
     report = _junction_report(pieces, built, turn, jump, tol, moves)

@@ -163,22 +163,23 @@ def reversal_points(program: Program, last: np.ndarray, turn: np.ndarray) -> lis
 
 
 def corner_stops(program: Program, last: np.ndarray, failed: dict[int, float],
-                 tol: np.ndarray, min_transition: float) -> tuple[list[StopPoint], list[str]]:
+                 tol: np.ndarray) -> tuple[list[StopPoint], list[str]]:
     """A stop and a note for every junction (after piece j, ``last`` its last move) where no
     G2 transition fits the tolerance ``tol[j]`` [m] (``failed``: j -> shortest's deviation;
-    nan: the transition would be shorter than ``min_transition`` [m])."""
+    nan: its transition cannot be built G2, :mod:`feedopt.geometry.junctions`)."""
     points, notes = [], []
     for j, best in sorted(failed.items()):
         before, after = program.moves[int(last[j])], program.moves[int(last[j]) + 1]
         points.append(geometric_stop(program, int(last[j]), StopKind.CORNER,
                                      f"no G2 transition within {tol[j] / MM:g} mm: corner "
                                      "stop"))
-        if math.isnan(best):  # a hairpin at a near-reversal
-            notes.append(f"{where(program.source, after.line, after.n_number)}: the junction "
-                         f"with line {before.line} turns back so far that a G2 transition "
-                         f"within the tolerance {tol[j] / MM:g} mm would be shorter than "
-                         f"{min_transition / MM:g} mm (a hairpin taken at practically zero "
-                         "feed): the tool stops there (a corner stop)")
+        if math.isnan(best):  # junctions: a transition too short to be built G2
+            notes.append(f"{where(program.source, after.line, after.n_number)}: the G2 "
+                         f"transition within the tolerance {tol[j] / MM:g} mm at the junction "
+                         f"with line {before.line} cannot be built G2: it would be a fraction "
+                         "of a micrometre long (a move about that short, or a near-reversal), "
+                         "too short for floating point to match its end curvatures; the tool "
+                         "stops there (a corner stop)")
             continue
         notes.append(f"{where(program.source, after.line, after.n_number)}: no G2 transition "
                      f"within the tolerance {tol[j] / MM:g} mm fits the junction with line "

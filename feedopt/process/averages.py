@@ -31,6 +31,9 @@ from feedopt.process.general_forces import (
 )
 from feedopt.process.tool import Tool
 
+#: slice-intervals per block of the leaning general cutter's revolution means
+AVERAGE_BLOCK = 1 << 16
+
 
 def _antiderivative(phi: np.ndarray, k: CuttingCoefficients, c: np.ndarray) -> np.ndarray:
     s, co = np.sin(phi), np.cos(phi)
@@ -76,7 +79,12 @@ def side_average(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement
     tilted slices (:func:`~feedopt.process.general_forces.slice_average`)."""
     lean = engagement.feed_axial
     if lean is not None and not tool.is_flat:
-        out = slice_average(tool, coeffs, slice_engagement(tool, engagement, AVERAGE_SLICES))
+        out = np.empty((engagement.n, 8))
+        rows = max(1, AVERAGE_BLOCK // AVERAGE_SLICES)  # bounded memory: (rows, L, W, 5)
+        for start in range(0, engagement.n, rows):
+            sl = slice(start, min(start + rows, engagement.n))
+            out[sl] = slice_average(tool, coeffs, slice_engagement(tool, engagement.take(sl),
+                                                                   AVERAGE_SLICES))
         return out[:, 0:3], out[:, 4:7]
     hull = engagement.hull_only()
     edge = average_forces(tool, coeffs, hull.entry, hull.exit, hull.axial_depth, 0.0)

@@ -185,7 +185,7 @@ class Engagement:
         """Every sample on one interval: the pieced samples not cutting (entry = exit = 0),
         without the plunge.
 
-        With :meth:`pieces_engagement`, the two parts the force model sums for the side
+        With ``pieces.as_engagement()``, the two parts the force model sums for the side
         (peripheral) edges."""
         return Engagement(np.where(self.pieced, 0.0, self.entry),
                           np.where(self.pieced, 0.0, self.exit), self.axial_depth,
@@ -208,13 +208,6 @@ class Engagement:
         (None: across the axis)."""
         return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, self.plunge,
                           feed_axial)
-
-    def pieces_engagement(self) -> Engagement:
-        """The pieces as an engagement of one sample each
-        (:meth:`EngagementPieces.as_engagement`), with their samples' feed along the axis."""
-        p = self.pieces
-        lean = None if self.feed_axial is None else self.feed_axial[p.sample]
-        return Engagement(p.entry, p.exit, p.axial_depth, feed_axial=lean)
 
     @property
     def plunging(self) -> np.ndarray:

@@ -144,12 +144,19 @@ def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEn
 
 
 def _leaning(se: SliceEngagement, feed_axial: np.ndarray | None) -> SliceEngagement:
-    """``se`` for a feed leaning by ``fz`` (n,) along the tool axis (None: ``se``): the feed
-    ``(fx, fz)``, ``fx = sqrt(1 - fz^2)``, and every interval (within [0, pi]) cut to the
-    front of the tool, where the chip ``c (fx sin(kappa) sin(theta) - fz cos(kappa))`` is
-    positive (module docstring): ``sin(theta) > t = fz cos(kappa) / (fx sin(kappa))``, i.e.
-    theta in ``[arcsin t, pi - arcsin t]`` for 0 < t < 1, all of [0, pi] for t <= 0, nothing
-    for t >= 1."""
+    """``se`` (intervals within [0, pi] from a lateral band of material) for a feed leaning
+    by ``fz`` (n,) along the tool axis (None: ``se``): the feed ``(fx, fz)``,
+    ``fx = sqrt(1 - fz^2)``, and the intervals cut to where the chip
+    ``c (fx sin(kappa) sin(theta) - fz cos(kappa))`` is positive (module docstring), i.e.
+    ``sin(theta) > t = fz cos(kappa) / (fx sin(kappa))``:
+
+    - t > 0 (a rising feed, a lead): the front ``[arcsin t, pi - arcsin t]``, nothing for
+      t >= 1 (the edge near the tip leaves the material);
+    - t < 0 (a descending feed): all of the front and, behind the tool, ``theta`` in
+      ``(pi, pi + b)`` and ``(2 pi - b, 2 pi)``, b = arcsin(-t) (all of the back for
+      t <= -1), where the same lateral band has material: at ``theta = 2 pi - phi`` the edge
+      is at the lateral position of ``phi``, so the band's back intervals mirror the front's
+      (the material below the tool's last positions, which the descending bottom cuts)."""
     if feed_axial is None:
         return se
     fz = np.asarray(feed_axial, dtype=float)
@@ -159,9 +166,21 @@ def _leaning(se: SliceEngagement, feed_axial: np.ndarray | None) -> SliceEngagem
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(den > 0.0, num / den, np.where(num > 0.0, np.inf, -np.inf))
     a = np.arcsin(np.clip(t, 0.0, 1.0))[..., None]
+    b = np.arcsin(np.clip(-t, 0.0, 1.0))[..., None]
     lo, hi = np.maximum(se.lo, a), np.minimum(se.hi, np.pi - a)
     keep = (lo < hi) & (t < 1.0)[..., None]
-    return SliceEngagement(s, np.where(keep, lo, 0.0), np.where(keep, hi, 0.0), fx, fz)
+    near_end = (np.maximum(se.lo, 0.0), np.minimum(se.hi, b))  # phi in (0, b)
+    near_pi = (np.maximum(se.lo, np.pi - b), se.hi)  # phi in (pi - b, pi)
+    parts_lo = [np.where(keep, lo, 0.0)]
+    parts_hi = [np.where(keep, hi, 0.0)]
+    for p_lo, p_hi in (near_end, near_pi):
+        on = (p_lo < p_hi) & (b > 0.0)
+        parts_lo.append(np.where(on, 2.0 * np.pi - p_hi, 0.0))
+        parts_hi.append(np.where(on, 2.0 * np.pi - p_lo, 0.0))
+    if not np.any(b > 0.0):
+        return SliceEngagement(s, parts_lo[0], parts_hi[0], fx, fz)
+    lo_all, hi_all = _merged(np.concatenate(parts_lo, axis=2), np.concatenate(parts_hi, axis=2))
+    return SliceEngagement(s, lo_all, hi_all, fx, fz)
 
 
 def _padded_pieces(engagement: Engagement) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -171,8 +171,8 @@ def unmodelled_plunges(engagement: Engagement, coefficients: CuttingCoefficients
     return engagement.with_plunge(None), mask, [warning]
 
 
-#: a five-axis path whose feed descends along the tool axis by more than this [deg] while a
-#: cutter with a flat bottom cuts gets a note (the end edges' chip is not modelled)
+#: a five-axis path whose feed descends along the tool axis by more than this [deg] while
+#: cutting gets a note (what the force model assumes or leaves out there)
 DESCENT_NOTE_DEG = 5.0
 
 
@@ -188,23 +188,29 @@ def feed_along_axis(samples, cutting: np.ndarray) -> np.ndarray | None:
 
 
 def descent_notes(samples, feed_axial: np.ndarray | None, tool) -> list[str]:
-    """A note where a cutter with a flat bottom (a flat or bull end mill: its end edges) cuts
-    while the feed descends along its axis by more than :data:`DESCENT_NOTE_DEG`: the side
-    edges' chip of the leaning feed is modelled, the end edges' is not (a flat end mill's
-    side edges then take the whole feed: :func:`~feedopt.process.forces.flat_side_scale`)."""
-    if feed_axial is None or tool.profile.r0 <= 0.0:
+    """A note where the feed descends along the tool axis by more than
+    :data:`DESCENT_NOTE_DEG` while cutting: a cutter with a flat bottom (flat, bull) cuts a
+    chip with its end edges that the force model does not have (a flat end mill's side edges
+    then take the whole feed: :func:`~feedopt.process.forces.flat_side_scale`); a rounded
+    bottom (ball) cuts behind the tool too, where the ``cut:`` engagement's lateral band is
+    taken to have material (:func:`~feedopt.process.general_forces.slice_engagement`)."""
+    if feed_axial is None:
         return []
     angle = np.degrees(np.arcsin(np.clip(-feed_axial, 0.0, 1.0)))
     k = int(np.argmax(angle))
     if angle[k] <= DESCENT_NOTE_DEG:
         return []
-    side = (" (the side edges take the whole feed there: an upper bound of their chip)"
-            if tool.is_flat else "")
+    if tool.profile.r0 > 0.0:
+        side = (" (the side edges take the whole feed there: an upper bound of their chip)"
+                if tool.is_flat else "")
+        what = (f"the end edges of the {tool.shape.value} cutter's flat bottom cut a chip there "
+                f"that the force model does not have{side}")
+    else:
+        what = (f"the {tool.shape.value} cutter's edge behind its bottom cuts too; the stated "
+                "engagement's lateral band of material is taken to reach behind the tool there")
     return [f"the feed descends along the tool axis by up to {angle[k]:.3g} deg while cutting "
             f"({int(np.count_nonzero(angle > DESCENT_NOTE_DEG))} sample(s) over "
-            f"{DESCENT_NOTE_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): the end "
-            f"edges of the {tool.shape.value} cutter's flat bottom cut a chip there that the "
-            f"force model does not have{side}"]
+            f"{DESCENT_NOTE_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): {what}"]
 
 
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,

@@ -126,18 +126,17 @@ def _check(kind: str, turn_deg: float, radius: float, tol_mm: float) -> None:
 
 
 def _check_hairpin_stop(out, program, tol_mm: float) -> None:
-    """A junction turning back so far that its transition would be shorter than
-    junctions.MIN_TRANSITION: the tool stops at the programmed corner, the path keeps it."""
-    from feedopt.geometry.junctions import MIN_TRANSITION
-
+    """A junction turning back so far that its transition would be a hairpin of a fraction
+    of a micrometre (too short to be built G2): the tool stops at the programmed corner, the
+    path keeps it."""
     corner = np.array(program.moves[int(np.flatnonzero(out.moves.line == out.moves.line[2])[0])
                                     ].start)
     assert out.stops.kind == ("corner",)
     assert np.allclose(out.path.evaluate(out.stops.s).position[0] / MM, corner, atol=1e-9)
-    # the cut points tol back along both moves lie 2 tol sin((pi - turn) / 2) apart
+    # the cut points tol back along both moves lie 2 tol sin((pi - turn) / 2) apart: < 1 um
     turn = np.arccos(np.clip(np.dot(*_unit_tangents(out, out.stops.s[0])), -1.0, 1.0))
-    assert 2 * tol_mm * MM * np.sin(0.5 * (np.pi - turn)) < 2 * MIN_TRANSITION
-    assert any("hairpin" in w for w in out.warnings)
+    assert 2 * tol_mm * MM * np.sin(0.5 * (np.pi - turn)) < 1e-6
+    assert any("cannot be built G2" in w for w in out.warnings)
 
 
 def _unit_tangents(out, s: float) -> tuple[np.ndarray, np.ndarray]:

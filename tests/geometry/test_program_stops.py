@@ -321,11 +321,10 @@ def test_a_junction_no_transition_fits_becomes_a_corner_stop(monkeypatch):
 def test_a_near_reversal_whose_transition_would_be_a_hairpin_is_a_corner_stop():
     """A 179 deg kink between two arcs at a 4 um tolerance: the transition within it would
     be about 0.1 um long (the two cut points c = 4 um back along nearly opposite directions
-    are 2 c sin(0.5 deg) = 0.07 um apart), shorter than junctions.MIN_TRANSITION (0.5 um): a corner
-    stop with its own note, the path G2 elsewhere."""
+    are 2 c sin(0.5 deg) = 0.07 um apart), a hairpin whose end curvatures floating point
+    cannot match (0.03 1/m off): a corner stop with its own note, the path G2 elsewhere."""
     from feedopt.gcode import parse_gcode
     from feedopt.geometry.continuity import continuity_report
-    from feedopt.geometry.junctions import MIN_TRANSITION
 
     heading = math.radians(20.0)  # after a G3 of R19 sweeping 20 deg from heading 0
     x, y = 19.0 * math.sin(heading), 19.0 - 19.0 * math.cos(heading)
@@ -342,9 +341,10 @@ def test_a_near_reversal_whose_transition_would_be_a_hairpin_is_a_corner_stop():
     rep = continuity_report(out.path)
     away = ~np.isin(rep.s, out.stops.s)
     assert rep.g2[away].max(initial=0) < 1e-3  # [1/m]
-    notes = [w for w in out.warnings if "hairpin" in w]
-    assert len(notes) == 1 and f"shorter than {MIN_TRANSITION / MM:g} mm" in notes[0]
-    assert notes[0].startswith("h.nc line 5: the junction with line 4 turns back")
+    notes = [w for w in out.warnings if "cannot be built G2" in w]
+    assert len(notes) == 1 and notes[0].startswith("h.nc line 5: the G2 transition within the "
+                                                   "tolerance 0.004 mm at the junction with "
+                                                   "line 4")
 
 
 # --- sampling ----------------------------------------------------------------------------
