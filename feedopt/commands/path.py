@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
+import stat
 from pathlib import Path as PathlibPath
 
 import numpy as np
@@ -152,18 +154,23 @@ _APT_LINE = re.compile(r"\s*(GOTO|FEDRAT|RAPID|MULTAX|UNITS|FROM|CIRCLE|LOADTL|C
 _GCODE_LINE = re.compile(r"\s*(N\d+\s*)?[GM]\d+(\.\d+)?(\s|[A-Z]|$)", re.IGNORECASE)
 
 
-def refuse_misnamed_program(name: str, lines: int = 50) -> None:
-    """InputError when a file read as a waypoint CSV (by its suffix) holds an APT CL file or
-    a G-code program (one of its first ``lines`` lines is a statement of one): name its line
-    and the suffixes that would read it."""
+def refuse_misnamed_program(name: str, lines: int = 50, head_bytes: int = 1 << 16) -> None:
+    """InputError when a regular file read as a waypoint CSV (by its suffix) holds an APT CL
+    file or a G-code program: one of its first ``lines`` lines (within ``head_bytes``) is an
+    APT statement, or a G-code block (without a comma: a CSV row may hold text such as
+    ``G1 start`` in a label column). Names the line and the suffixes that would read it.
+    Anything else (a pipe, a device, a missing file) is left to the CSV reader's checks."""
     try:
-        with open(name, encoding="utf-8", errors="replace") as f:
-            head = [f.readline() for _ in range(lines)]
+        if not stat.S_ISREG(os.stat(name).st_mode):
+            return
+        with open(name, "rb") as f:
+            head = f.read(head_bytes).decode("utf-8", errors="replace").splitlines()[:lines]
     except OSError:
         return  # the CSV reader says what is wrong with the file
     for number, text in enumerate(head, start=1):
         kind = ("an APT CL statement", APT_SUFFIXES) if _APT_LINE.match(text) else (
-            ("a G-code block", PROGRAM_SUFFIXES) if _GCODE_LINE.match(text) else None)
+            ("a G-code block", PROGRAM_SUFFIXES) if "," not in text and _GCODE_LINE.match(text)
+            else None)
         if kind is not None:
             raise InputError(f"{name} is read as a waypoint CSV (by its name), but its line "
                              f"{number} ({text.strip()[:40]!r}) is {kind[0]}: give the file "

@@ -27,6 +27,7 @@ from feedopt.process.engagement import (
     radial_depth_profile,
     slot_engagement,
 )
+from feedopt.process.general_forces import slice_engagement
 from feedopt.process.material import MaterialAlongPath, engagement_from_stock
 from feedopt.process.path_radius import check_path_radius
 from feedopt.process.plunge import check_plunge_depth
@@ -213,6 +214,31 @@ def descent_notes(samples, feed_axial: np.ndarray | None, tool) -> list[str]:
             f"{DESCENT_NOTE_DEG:g} deg, the most at s = {samples.s[k] / MM:.2f} mm): {what}"]
 
 
+#: axial slices of the check behind :func:`lifted_notes` (milling_forces' default)
+LIFT_NOTE_SLICES = 20
+
+
+def lifted_notes(samples, engagement: Engagement, tool) -> list[str]:
+    """A note where a general cutter's stated engagement cuts nothing because its feed rises
+    along the axis so steeply that no edge point is on the front of the tool (a lead of
+    lambda takes the edge below kappa = lambda out of the cut): zero force there."""
+    if engagement.feed_axial is None or tool.is_flat:
+        return []
+    cutting = engagement.exit > engagement.entry
+    se = slice_engagement(tool, engagement.take(np.flatnonzero(cutting)), LIFT_NOTE_SLICES)
+    empty = ~np.any(se.lo < se.hi, axis=(1, 2))
+    if not empty.any():
+        return []
+    rows = np.flatnonzero(cutting)[empty]
+    k = int(rows[np.argmax(engagement.feed_axial[rows])])
+    return [f"the {tool.shape.value} cutter cuts nothing at {rows.size} sample(s) of the "
+            f"stated engagement (the first at s = {samples.s[rows[0]] / MM:.2f} mm): the feed "
+            f"rises along the tool axis by up to "
+            f"{np.degrees(np.arcsin(engagement.feed_axial[k])):.3g} deg, which takes every "
+            "engaged edge point off the front of the tool (zero force, no deflection bound "
+            "there)"]
+
+
 def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                        segment_names: list[str], moves=None) -> ProcessAlongPath:
     """Load the tool and material of ``scenario`` and state the engagement of every sample.
@@ -266,6 +292,7 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
         warnings += material.warnings
     warnings += plunge_notes
     warnings += descent_notes(samples, engagement.feed_axial, tool)
+    warnings += lifted_notes(samples, engagement, tool)
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))
         warnings.append(f"the stock reaches above the flutes of the tool at "

@@ -57,3 +57,27 @@ def test_a_program_in_a_file_named_like_waypoints_is_named(tmp_path, capsys, tex
     err = capsys.readouterr().err
     assert f"its line {line}" in err and kind in err and "--radius" not in err
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_label_columns_that_look_like_gcode_words_are_still_waypoints(tmp_path, capsys):
+    """A CSV row holding text such as "G1 start" in a label column is a waypoint row (a G-code
+    block has no comma), read as before."""
+    src = tmp_path / "labels.csv"
+    src.write_text("note,x_mm,y_mm,z_mm\nM6 tool change,0,0,0\nG1 start,10,0,0\nc,10,10,0\n")
+    assert main(["path", str(src), "--radius", "1", "--out", str(tmp_path / "o.csv")]) == 0
+    assert (tmp_path / "o.csv").is_file()
+
+
+def test_a_pipe_named_like_waypoints_is_refused_without_waiting(tmp_path):
+    """The program sniff reads regular files only: a FIFO is refused by the reader (it would
+    block on a read)."""
+    import os
+    import subprocess
+    import sys
+
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    done = subprocess.run([sys.executable, "-m", "feedopt.cli", "path", str(fifo), "--radius",
+                           "1", "--out", str(tmp_path / "o.csv")], capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 2 and "named pipe" in done.stderr

@@ -57,3 +57,21 @@ def test_a_descent_is_noted_with_what_the_model_assumes(tool, says):
     # a rising feed (a lead towards the feed) only: the end edges leave the material
     rising = _samples(np.array([DESCENT_NOTE_DEG + 10.0, 30.0]))
     assert descent_notes(rising, feed_along_axis(rising, np.ones(2, dtype=bool)), tool) == []
+
+
+def test_a_lead_that_takes_the_whole_stated_cut_off_the_front_is_noted():
+    """A ball slotting 0.2 mm deep at a 20 deg lead: the edge below kappa = 20 deg (the
+    depth R (1 - cos 20 deg) = 0.30 mm) is off the front of the tool, so nothing cuts; at
+    1 mm deep it does. A flat end mill's side edges always cut."""
+    from feedopt.process.engagement import Engagement
+    from feedopt.process.stage import lifted_notes
+
+    samples = _samples(np.array([20.0, 20.0, 0.0]))
+    fz = feed_along_axis(samples, np.ones(3, dtype=bool))
+    shallow = Engagement(np.zeros(3), np.full(3, np.pi), np.full(3, 0.2 * MM), feed_axial=fz)
+    notes = lifted_notes(samples, shallow, BALL)
+    assert len(notes) == 1 and "cuts nothing at 2 sample(s)" in notes[0]
+    assert "by up to 20 deg" in notes[0] and "s = 0.00 mm" in notes[0]
+    deep = Engagement(np.zeros(3), np.full(3, np.pi), np.full(3, 1.0 * MM), feed_axial=fz)
+    assert lifted_notes(samples, deep, BALL) == []
+    assert lifted_notes(samples, shallow, FLAT) == []
