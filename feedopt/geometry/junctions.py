@@ -655,7 +655,8 @@ def _not_built_g2(path: Path, stretches: list[Stretch], treated: np.ndarray,
     all but stops there anyway)."""
     bad = {junction_of(stretches, int(i))
            for i in non_g2(path, stretches, G2_STOP_TOL).tolist()}
-    return {j: math.nan for j in sorted(bad) if j in set(treated.tolist()) and j not in failed}
+    mine = bad.intersection(treated.tolist()).difference(failed)
+    return {j: math.nan for j in sorted(mine)}
 
 
 def _with_transitions(stretches0: list[Stretch], trans: Transitions

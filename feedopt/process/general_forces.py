@@ -169,16 +169,15 @@ def _leaning(se: SliceEngagement, feed_axial: np.ndarray | None) -> SliceEngagem
     b = np.arcsin(np.clip(-t, 0.0, 1.0))[..., None]
     lo, hi = np.maximum(se.lo, a), np.minimum(se.hi, np.pi - a)
     keep = (lo < hi) & (t < 1.0)[..., None]
+    parts_lo, parts_hi = [np.where(keep, lo, 0.0)], [np.where(keep, hi, 0.0)]
+    if not np.any(b > 0.0):  # no descent: the front only
+        return SliceEngagement(s, parts_lo[0], parts_hi[0], fx, fz)
     near_end = (np.maximum(se.lo, 0.0), np.minimum(se.hi, b))  # phi in (0, b)
     near_pi = (np.maximum(se.lo, np.pi - b), se.hi)  # phi in (pi - b, pi)
-    parts_lo = [np.where(keep, lo, 0.0)]
-    parts_hi = [np.where(keep, hi, 0.0)]
     for p_lo, p_hi in (near_end, near_pi):
         on = (p_lo < p_hi) & (b > 0.0)
         parts_lo.append(np.where(on, 2.0 * np.pi - p_hi, 0.0))
         parts_hi.append(np.where(on, 2.0 * np.pi - p_lo, 0.0))
-    if not np.any(b > 0.0):
-        return SliceEngagement(s, parts_lo[0], parts_hi[0], fx, fz)
     lo_all, hi_all = _merged(np.concatenate(parts_lo, axis=2), np.concatenate(parts_hi, axis=2))
     return SliceEngagement(s, lo_all, hi_all, fx, fz)
 
