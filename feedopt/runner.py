@@ -286,11 +286,13 @@ def validate_scenario(scenario_path: str | Path) -> str:
     notes = process_warnings(process, path, scenario)
     stock = ""
     if process.material is not None:
-        zmap = process.material.before
+        grid = process.material.before
         units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
                  else "")
-        stock = (f"; stock {zmap.shape[0]} x {zmap.shape[1]} cells of {zmap.cell / MM:g} mm"
-                 f"{units}")
+        size = (f"tri-dexel {' + '.join(f'{r:,}' for r in grid.rays)} rays every "
+                f"{grid.spacing / MM:g} mm" if hasattr(grid, "rays") else
+                f"{grid.shape[0]} x {grid.shape[1]} cells of {grid.cell / MM:g} mm")
+        stock = f"; stock {size}{units}"
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
             f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}"
             + "".join(f"\nwarning: {note}" for note in notes))

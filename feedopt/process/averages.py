@@ -76,9 +76,10 @@ def side_average(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement
     forms of :func:`average_forces` summed over a sample's pieces. A feed leaning along the
     tool axis (``engagement.feed_axial``): a flat end mill's cutting part scaled by
     :func:`~feedopt.process.forces.flat_side_scale`, a general cutter's exact mean of its
-    tilted slices (:func:`~feedopt.process.general_forces.slice_average`)."""
+    tilted slices (:func:`~feedopt.process.general_forces.slice_average`), as is an
+    engagement given by slice (any cutter)."""
     lean = engagement.feed_axial
-    if lean is not None and not tool.is_flat:
+    if engagement.by_slice is not None or (lean is not None and not tool.is_flat):
         out = np.empty((engagement.n, 8))
         rows = max(1, AVERAGE_BLOCK // AVERAGE_SLICES)  # bounded memory: (rows, L, W, 5)
         for start in range(0, engagement.n, rows):

@@ -137,6 +137,48 @@ class Slices:
     width: np.ndarray
 
 
+@dataclass(frozen=True)
+class SliceEngagement:
+    """Per sample the slices of the profile over its axial depth and, per slice, the union
+    of the engaged intervals ``[lo_w, hi_w)`` (w < W, padded with empty ``lo == hi``).
+
+    ``feed_x``, ``feed_z`` (n,): a tilted tool's unit feed direction in its own frame, across
+    and along the tool axis (lead: ``(cos, sin)`` of the angle;
+    :mod:`feedopt.process.general_forces`, "Feed along the axis"); None: the feed is across
+    the axis (1, 0). Intervals lie in [0, 2 pi) [rad] (the angle of
+    :mod:`feedopt.process.general_forces`)."""
+
+    sliced: Slices
+    lo: np.ndarray  # (n, L, W) [rad]
+    hi: np.ndarray  # (n, L, W) [rad]
+    feed_x: np.ndarray | None = None
+    feed_z: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.lo.shape[0])
+
+    def rows(self, sl: slice | np.ndarray) -> SliceEngagement:
+        """The samples ``sl`` (a slice or an index array)."""
+        s = self.sliced
+        fx, fz = (None if f is None else f[sl] for f in (self.feed_x, self.feed_z))
+        return SliceEngagement(Slices(s.radius[sl], s.height[sl], s.sin_kappa[sl],
+                                      s.cos_kappa[sl], s.width[sl]), self.lo[sl], self.hi[sl],
+                               fx, fz)
+
+    def without(self, drop: np.ndarray) -> SliceEngagement:
+        """These intervals with the samples ``drop`` (n,) bool cutting nothing."""
+        drop = np.asarray(drop, dtype=bool)[:, None, None]
+        return SliceEngagement(self.sliced, np.where(drop, 0.0, self.lo),
+                               np.where(drop, 0.0, self.hi), self.feed_x, self.feed_z)
+
+    @property
+    def cutting(self) -> np.ndarray:
+        """(n,) bool: some slice of the sample has a non-empty interval."""
+        return np.any(self.lo < self.hi, axis=(1, 2))
+
+
 def profile_slices(profile: Profile, depth: np.ndarray, slices: int) -> Slices:
     """The ``slices`` slices of equal profile length over axial depth ``depth`` (n,) [m],
     at their mid-lengths (module docstring)."""

@@ -331,6 +331,32 @@ class TriDexel:
         """Ray spacing h [m]."""
         return self.grids[0].spacing
 
+    @property
+    def rays(self) -> tuple[int, int, int]:
+        """Number of rays of each grid (x, y, z)."""
+        return tuple(int(g.count.size) for g in self.grids)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the intervals and counts [bytes]."""
+        return sum(int(g.intervals.nbytes + g.count.nbytes) for g in self.grids)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box (lo (3,), hi (3,)) [m] the grids cover."""
+        lo, hi = np.zeros(3), np.zeros(3)
+        for g in self.grids:
+            u, v = g.uv
+            lo[u], lo[v] = g.origin
+            hi[u] = g.origin[0] + g.shape[0] * g.spacing
+            hi[v] = g.origin[1] + g.shape[1] * g.spacing
+        return lo, hi
+
+    def copy(self) -> TriDexel:
+        """An independent copy (removals from one leave the other)."""
+        return TriDexel(tuple(DexelGrid(g.axis, g.origin.copy(), g.spacing, g.shape,
+                                        g.intervals.copy(), g.count.copy())
+                              for g in self.grids))
+
     @staticmethod
     def _layout(lo: np.ndarray, hi: np.ndarray, spacing: float) -> list[tuple]:
         """Per grid (axis, (u0, v0), (nu, nv)) covering the box [lo, hi] [m]."""

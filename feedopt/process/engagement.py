@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from feedopt.errors import InputError
+from feedopt.process.cutter import SliceEngagement
 from feedopt.units import MM, MM_PER_M
 
 MILLING_MODES = ("up", "down")
@@ -107,6 +108,12 @@ class Engagement:
         + towards the spindle): the chip of a tilted tool
         (:mod:`feedopt.process.general_forces`, "Feed along the axis"). None: the feed is
         across the axis.
+    by_slice : optional :class:`~feedopt.process.cutter.SliceEngagement` of all ``n``
+        samples: per sample and profile slice the engaged intervals in [0, 2 pi), found in a
+        stock by a tilted tool (:mod:`feedopt.process.tilted_engagement`). The force model
+        then takes these (the cutter of any shape on the profile's slices,
+        :mod:`feedopt.process.general_forces`) instead of entry/exit/depth, which are their
+        lateral hull (for reports) and the slicing height.
     """
 
     entry: np.ndarray
@@ -115,6 +122,7 @@ class Engagement:
     pieces: EngagementPieces | None = None
     plunge: np.ndarray | None = None
     feed_axial: np.ndarray | None = None
+    by_slice: SliceEngagement | None = None
 
     def __post_init__(self) -> None:
         arrays = [np.asarray(getattr(self, k), dtype=float) for k in ("entry", "exit")]
@@ -135,6 +143,9 @@ class Engagement:
         validate_engagement(self)
         object.__setattr__(self, "plunge", _plunge_column(self.plunge, self.n))
         object.__setattr__(self, "feed_axial", _feed_axial_column(self.feed_axial, self.n))
+        if self.by_slice is not None and self.by_slice.n != self.n:
+            raise InputError(f"engagement: by_slice has {self.by_slice.n} samples, expected "
+                             f"{self.n}")
         p = self.pieces
         if p is not None:
             if p.count == 0:
@@ -169,8 +180,9 @@ class Engagement:
             pieces = self.pieces.select(keep)
         plunge = None if self.plunge is None else self.plunge[idx]
         lean = None if self.feed_axial is None else self.feed_axial[idx]
+        table = None if self.by_slice is None else self.by_slice.rows(idx)
         return Engagement(self.entry[idx], self.exit[idx], self.axial_depth[idx], pieces,
-                          plunge, lean)
+                          plunge, lean, table)
 
     def without(self, drop: np.ndarray) -> Engagement:
         """This engagement with the samples where ``drop`` holds not cutting (in air, no
@@ -178,8 +190,9 @@ class Engagement:
         drop = np.asarray(drop, dtype=bool)
         pieces = None if self.pieces is None else self.pieces.select(~drop, renumber=False)
         plunge = None if self.plunge is None else np.where(drop, 0.0, self.plunge)
+        table = None if self.by_slice is None else self.by_slice.without(drop)
         return Engagement(np.where(drop, 0.0, self.entry), np.where(drop, 0.0, self.exit),
-                          self.axial_depth, pieces, plunge, self.feed_axial)
+                          self.axial_depth, pieces, plunge, self.feed_axial, table)
 
     def hull_only(self) -> Engagement:
         """Every sample on one interval: the pieced samples not cutting (entry = exit = 0),
@@ -196,18 +209,25 @@ class Engagement:
         if self.plunge is None:
             return self
         return Engagement(self.entry, self.exit, self.axial_depth, self.pieces,
-                          feed_axial=self.feed_axial)
+                          feed_axial=self.feed_axial, by_slice=self.by_slice)
 
     def with_plunge(self, plunge: np.ndarray | None) -> Engagement:
         """This engagement with the plunge column ``plunge`` (n,) (0/1; None: no plunge)."""
         return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, plunge,
-                          self.feed_axial)
+                          self.feed_axial, self.by_slice)
 
     def with_feed_axial(self, feed_axial: np.ndarray | None) -> Engagement:
         """This engagement with the feed's component along the tool axis ``feed_axial`` (n,)
         (None: across the axis)."""
         return Engagement(self.entry, self.exit, self.axial_depth, self.pieces, self.plunge,
-                          feed_axial)
+                          feed_axial, self.by_slice)
+
+    @property
+    def cutting(self) -> np.ndarray:
+        """(n,) bool: the side edges cut (an engaged interval; the plunge not counted)."""
+        if self.by_slice is not None:
+            return self.by_slice.cutting
+        return self.exit > self.entry
 
     @property
     def plunging(self) -> np.ndarray:

@@ -197,7 +197,7 @@ def milling_forces(
     if engagement.plunge is not None:  # side edges, then the end edges added
         side = milling_forces(tool, coeffs, engagement.side_only(), phi, axial_slices)
         return _with_plunge(side, tool, coeffs, engagement.plunge)
-    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
+    if _on_profile(tool, engagement):  # Engin & Altintas on the profile's slices
         return _general_split(tool, coeffs, engagement, phi, int(axial_slices))
     if engagement.feed_axial is not None:  # a leaning feed: the side edges' chip scaled
         return _leaned(milling_forces(tool, coeffs, engagement.with_feed_axial(None), phi,
@@ -210,6 +210,13 @@ def milling_forces(
             milling_forces(tool, coeffs, pieces.as_engagement(), phi, axial_slices),
             pieces.sample)
     return _one_interval_forces(tool, coeffs, engagement, phi, int(axial_slices))
+
+
+def _on_profile(tool: Tool, engagement: Engagement) -> bool:
+    """Whether the forces are summed on the profile's slices
+    (:mod:`feedopt.process.general_forces`): a cutter that is not a flat end mill (ball,
+    bull, tapered, face), or an engagement given per slice (a tilted tool in a stock)."""
+    return not tool.is_flat or engagement.by_slice is not None
 
 
 def _one_interval_forces(tool: Tool, coeffs: CuttingCoefficients, engagement: Engagement,
@@ -289,7 +296,7 @@ def critical_angles(tool: Tool, engagement: Engagement, axial_slices: int = 20) 
     """
     slices = _check_slices(axial_slices)
     validate_engagement(engagement, tool.flute_length)
-    if not tool.is_flat:  # per slice and interval of the profile
+    if _on_profile(tool, engagement):  # per slice and interval of the profile
         return general_critical_angles(tool, slice_engagement(tool, engagement, slices))
     if engagement.pieces is not None:
         return _pieced_critical_angles(tool, engagement, slices)
@@ -347,7 +354,7 @@ def milling_forces_at(
     if engagement.plunge is not None:  # side edges, then the end edges added
         side = milling_forces_at(tool, coeffs, engagement.side_only(), phi, axial_slices)
         return _with_plunge(side, tool, coeffs, engagement.plunge)
-    if not tool.is_flat:  # ball, bull, tapered, face: Engin & Altintas on the profile
+    if _on_profile(tool, engagement):  # Engin & Altintas on the profile's slices
         out = general_sums(tool, coeffs, phi, slice_engagement(tool, engagement, slices))
         return ForceSplit(np.array(phi), out[..., 0:3], out[..., 4:7], out[..., 3], out[..., 7])
     if engagement.feed_axial is not None:  # a leaning feed: the side edges' chip scaled
@@ -564,7 +571,7 @@ def _general_split(tool: Tool, coeffs: CuttingCoefficients, engagement: Engageme
     """:func:`milling_forces` of a general cutter (:mod:`feedopt.process.general_forces`):
     distinct engagements (without pieces) computed once, at the shared angles ``phi``."""
     n = engagement.n
-    if engagement.pieces is None and n:
+    if engagement.pieces is None and engagement.by_slice is None and n:
         lean = np.zeros(n) if engagement.feed_axial is None else engagement.feed_axial
         key = np.stack([engagement.entry, engagement.exit, engagement.axial_depth, lean],
                        axis=1)

@@ -52,12 +52,11 @@ are summed as for the flat end mill.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from feedopt.process.coefficients import CuttingCoefficients
-from feedopt.process.cutter import Slices, profile_slices
+from feedopt.process.cutter import SliceEngagement, Slices, profile_slices
 from feedopt.process.engagement import Engagement
 from feedopt.process.force_sums import settle_critical
 from feedopt.process.tool import Tool
@@ -93,35 +92,14 @@ def _lags(rate: float, slices: Slices) -> np.ndarray:
     return rate * slices.height
 
 
-@dataclass(frozen=True)
-class SliceEngagement:
-    """Per sample the slices of the profile over its axial depth and, per slice, the union
-    of the engaged intervals ``[lo_w, hi_w)`` (w < W, padded with empty ``lo == hi``).
-
-    ``feed_x``, ``feed_z`` (n,): a tilted tool's unit feed direction in its own frame, across
-    and along the tool axis (lead: ``(cos, sin)`` of the angle; module docstring, "Feed along
-    the axis"); None: the feed is across the axis (1, 0)."""
-
-    sliced: Slices
-    lo: np.ndarray  # (n, L, W) [rad]
-    hi: np.ndarray  # (n, L, W) [rad]
-    feed_x: np.ndarray | None = None
-    feed_z: np.ndarray | None = None
-
-    def rows(self, sl: slice) -> SliceEngagement:
-        """The samples ``sl``."""
-        s = self.sliced
-        fx, fz = (None if f is None else f[sl] for f in (self.feed_x, self.feed_z))
-        return SliceEngagement(Slices(s.radius[sl], s.height[sl], s.sin_kappa[sl],
-                                      s.cos_kappa[sl], s.width[sl]), self.lo[sl], self.hi[sl],
-                               fx, fz)
-
-
 def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEngagement:
     """The engagement of a general cutter by slice (module docstring): the profile sliced
     over each sample's (largest) axial depth; a slice at height z takes the pieces deeper than
     z (a sample without pieces: its one interval), projected to its radius and merged where
-    they touch or overlap."""
+    they touch or overlap. An engagement given by slice (``engagement.by_slice``) is its
+    own table, at its own slices."""
+    if engagement.by_slice is not None:
+        return engagement.by_slice
     radius = tool.diameter / 2.0
     if engagement.pieces is None:
         sliced = profile_slices(tool.profile, engagement.axial_depth, slices)

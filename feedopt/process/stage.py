@@ -21,6 +21,7 @@ from feedopt.process.coefficients import (
     feed_per_tooth_warning,
     load_coefficients,
 )
+from feedopt.process.dexel_material import DexelMaterialAlongPath, engagement_from_dexel
 from feedopt.process.engagement import (
     Engagement,
     peripheral_engagement,
@@ -51,7 +52,8 @@ class ProcessAlongPath:
     coefficients: CuttingCoefficients
     engagement: Engagement
     warnings: tuple[str, ...]
-    material: MaterialAlongPath | None = None  # with a stock: the sweep and the stock
+    # with a stock: the sweep and the stock (a tri-dexel for a tilted tool)
+    material: MaterialAlongPath | DexelMaterialAlongPath | None = None
     unmodelled_plunge: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
 
@@ -188,22 +190,28 @@ def feed_along_axis(samples, cutting: np.ndarray) -> np.ndarray | None:
     return np.where(cutting, along, 0.0)
 
 
-def descent_notes(samples, feed_axial: np.ndarray | None, tool) -> list[str]:
+def descent_notes(samples, feed_axial: np.ndarray | None, tool, stock: bool = False
+                  ) -> list[str]:
     """A note where the feed descends along the tool axis by more than
     :data:`DESCENT_NOTE_DEG` while cutting: a cutter with a flat bottom (flat, bull) cuts a
     chip with its end edges that the force model does not have (a flat end mill's side edges
     then take the whole feed: :func:`~feedopt.process.forces.flat_side_scale`); a rounded
     bottom (ball) cuts behind the tool too, where the ``cut:`` engagement's lateral band is
-    taken to have material (:func:`~feedopt.process.general_forces.slice_engagement`)."""
+    taken to have material (:func:`~feedopt.process.general_forces.slice_engagement`).
+    With ``stock`` (the engagement found in a tri-dexel, per slice) a rounded bottom's cut
+    is found, not assumed: no note; a flat bottom's side edges take the feed's component
+    across the axis."""
     if feed_axial is None:
         return []
     angle = np.degrees(np.arcsin(np.clip(-feed_axial, 0.0, 1.0)))
     k = int(np.argmax(angle))
     if angle[k] <= DESCENT_NOTE_DEG:
         return []
+    if stock and tool.profile.r0 <= 0.0:
+        return []
     if tool.profile.r0 > 0.0:
         side = (" (the side edges take the whole feed there: an upper bound of their chip)"
-                if tool.is_flat else "")
+                if tool.is_flat and not stock else "")
         what = (f"the end edges of the {tool.shape.value} cutter's flat bottom cut a chip there "
                 f"that the force model does not have{side}")
     else:
@@ -222,7 +230,7 @@ def lifted_notes(samples, engagement: Engagement, tool) -> list[str]:
     """A note where a general cutter's stated engagement cuts nothing because its feed rises
     along the axis so steeply that no edge point is on the front of the tool (a lead of
     lambda takes the edge below kappa = lambda out of the cut): zero force there."""
-    if engagement.feed_axial is None or tool.is_flat:
+    if engagement.feed_axial is None or tool.is_flat or engagement.by_slice is not None:
         return []
     cutting = engagement.exit > engagement.entry
     se = slice_engagement(tool, engagement.take(np.flatnonzero(cutting)), LIFT_NOTE_SLICES)
@@ -262,13 +270,9 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     material = None
     source = str(getattr(scenario.path, "file", None) or "the program")
-    if scenario.stock is not None and samples.axis is not None:
-        raise InputError("stock: the Z-map follows a tool along the workpiece's z; this path "
-                         "tilts the tool (its tool vectors): give the engagement with cut: "
-                         "instead")
     if scenario.stock is not None:
-        material = engagement_from_stock(scenario.stock, resolve, tool, samples, moves,
-                                         source=source)
+        from_stock = engagement_from_stock if samples.axis is None else engagement_from_dexel
+        material = from_stock(scenario.stock, resolve, tool, samples, moves, source=source)
         engagement = material.found.engagement
     else:
         engagement = engagement_of(cut, tool, samples.s)
@@ -277,10 +281,10 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
                                         scenario.path.stock_top_mm * MM, tool, source)
     engagement, unmodelled, plunge_notes = unmodelled_plunges(
         engagement, coefficients, moves, samples, scenario.material, tool)
-    lean = feed_along_axis(samples, engagement.exit > engagement.entry)
-    engagement = engagement.with_feed_axial(lean)
+    if engagement.by_slice is None:  # a tilted tool's stock engagement has its lean
+        engagement = engagement.with_feed_axial(feed_along_axis(samples, engagement.cutting))
     warnings = check_path_radius(samples, segment_names, 0.5 * tool.diameter,
-                                 cutting=engagement.exit > engagement.entry,
+                                 cutting=engagement.cutting,
                                  tool_axis=np.asarray(scenario.workpiece.tool_axis)
                                  if samples.axis is None else samples.axis,
                                  refuse=moves is None)
@@ -291,7 +295,8 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     if material is not None:
         warnings += material.warnings
     warnings += plunge_notes
-    warnings += descent_notes(samples, engagement.feed_axial, tool)
+    warnings += descent_notes(samples, engagement.feed_axial, tool,
+                              stock=engagement.by_slice is not None)
     warnings += lifted_notes(samples, engagement, tool)
     if material is not None and material.found.beyond_flutes.any():
         i = int(np.argmax(material.found.beyond_flutes))

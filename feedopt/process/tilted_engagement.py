@@ -62,8 +62,8 @@ import numpy as np
 from feedopt.process.cutter import Profile, Slices, profile_slices
 from feedopt.process.general_forces import SliceEngagement
 
-__all__ = ["TiltedEngagement", "edge_points", "front_of_tool", "tilted_slice_engagement",
-           "tool_frame"]
+__all__ = ["TiltedEngagement", "edge_points", "front_of_tool", "lateral_hull",
+           "material_height", "tilted_slice_engagement", "tool_frame"]
 
 _TWO_PI = 2.0 * math.pi
 # Edge points (samples x slices x angles) per block.
@@ -257,3 +257,63 @@ def _sorted(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = np.where(empty, 0.0, lo), np.where(empty, 0.0, hi)
     width = max(1, int((~empty).sum(axis=1).max(initial=1)))
     return lo[:, :width], hi[:, :width]
+
+
+#: Angles per turn of the coarse pass of :func:`material_height` (5 deg).
+HEIGHT_ANGLES = 72
+
+
+def material_height(stock_contains: Contains, tip: np.ndarray, axis: np.ndarray,
+                    feed: np.ndarray, profile: Profile, limits: tuple[float, float]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """How high the material in front of the cutter reaches, per sample: (depth (n,) [m],
+    above (n,) bool).
+
+    ``limits = (height, step)``: the profile is cut into slices about ``step`` [m] long up
+    to ``height + 2 step`` (the flutes' length and a little above); an edge point is tested
+    by the engagement rule (module docstring) at :data:`HEIGHT_ANGLES` angles. ``depth`` is
+    the mid-height of the slice above the highest engaged one (at most ``height``; 0 where
+    nothing is engaged): the axial length to slice finely for :func:`tilted_slice_engagement`.
+    ``above`` marks material in front of the cutter above ``height`` (the shank would rub).
+    Material thinner than half a slice and runs narrower than 5 deg can be missed."""
+    height, step = limits
+    tip = np.atleast_2d(np.asarray(tip, dtype=float))
+    n = tip.shape[0]
+    frame, fx, fz = tool_frame(np.broadcast_to(axis, tip.shape), np.broadcast_to(feed, tip.shape))
+    reach = height + 2.0 * step
+    count = int(np.clip(math.ceil(float(profile.length_to_height(reach)) / step), 8, 400))
+    sliced = profile_slices(profile, np.full(n, reach), count)
+    phi = np.arange(HEIGHT_ANGLES) * (_TWO_PI / HEIGHT_ANGLES)
+    rows = max(1, _POINTS // (count * HEIGHT_ANGLES))
+    hit = np.empty((n, count), dtype=bool)
+    for start in range(0, n, rows):
+        sl = slice(start, min(start + rows, n))
+        part = Slices(sliced.radius[sl], sliced.height[sl], sliced.sin_kappa[sl],
+                      sliced.cos_kappa[sl], sliced.width[sl])
+        hit[sl] = _engaged(stock_contains, (tip[sl], frame[sl], fx[sl], fz[sl]), part,
+                           phi).any(axis=2)
+    z = sliced.height
+    top = count - 1 - np.argmax(hit[:, ::-1], axis=1)  # the highest engaged slice
+    above_top = np.concatenate([z[:, 1:], np.full((n, 1), reach)], axis=1)
+    depth = np.where(hit.any(axis=1), np.minimum(above_top[np.arange(n), top], height), 0.0)
+    return depth, np.any(hit & (z > height), axis=1)
+
+
+def lateral_hull(se: SliceEngagement) -> tuple[np.ndarray, np.ndarray]:
+    """(entry, exit) (n,) [rad] in [0, pi]: the lateral extent of every engaged interval of a
+    sample, folded onto the front (an angle theta behind the tool, in (pi, 2 pi), is at the
+    lateral position of 2 pi - theta); entry == exit == 0 where nothing is engaged. For
+    reports and the engagement's summary columns."""
+    lo, hi = se.lo, se.hi
+    on = lo < hi
+    back_lo, back_hi = _TWO_PI - hi, _TWO_PI - lo  # the folded ends of a back interval
+    low = np.where(hi <= np.pi, lo, np.where(lo >= np.pi, back_lo, np.minimum(lo, back_lo)))
+    high = np.where(hi <= np.pi, hi, np.where(lo >= np.pi, back_hi, np.pi))
+    entry = np.min(np.where(on, low, np.inf), axis=(1, 2))
+    exit_ = np.max(np.where(on, high, -np.inf), axis=(1, 2))
+    cutting = np.isfinite(entry)
+    entry = np.where(cutting, np.clip(entry, 0.0, np.pi), 0.0)
+    exit_ = np.where(cutting, np.clip(exit_, 0.0, np.pi), 0.0)
+    thin = cutting & (exit_ <= entry)  # a zero-width hull still counts as cutting
+    entry = np.where(thin, np.minimum(entry, np.pi - 1e-12), entry)
+    return entry, np.where(thin, entry + 1e-12, exit_)

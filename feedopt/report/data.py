@@ -180,9 +180,12 @@ class EngagementSeries:
     intervals: np.ndarray
 
 
-def engagement_series(samples, material) -> EngagementSeries:
+def engagement_series(samples, material) -> EngagementSeries | None:
     """The :class:`EngagementSeries` of a run's samples and its
-    :class:`~feedopt.process.material.MaterialAlongPath`."""
+    :class:`~feedopt.process.material.MaterialAlongPath`; None for a tri-dexel stock (its
+    figure draws a Z-map's top)."""
+    if not hasattr(material.after, "heights"):
+        return None
     found = material.found
     air = found.in_air
     after = material.after

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from feedopt.process.dexel import TriDexel
 from feedopt.process.program import unmodelled_plunge_moves
 from feedopt.units import MM
 
@@ -256,12 +257,16 @@ def stock_summary(prepared: Prepared) -> dict | None:
         return None
     sec = prepared.scenario.stock
     found = material.found
+    dexel = isinstance(material.before, TriDexel)
+    grid = ({"model": "tri-dexel", "rays": list(material.before.rays),
+             "dexel_mb": material.before.nbytes / 1e6} if dexel else
+            {"model": "z-map", "cells": list(material.before.shape),
+             "zmap_mb": material.before.nbytes / 1e6})
     return {
         "box_mm": None if sec.box_mm is None else list(sec.box_mm),
         "mesh": sec.mesh,
         "cell_mm": sec.cell_mm,
-        "cells": list(material.before.shape),
-        "zmap_mb": material.before.nbytes / 1e6,
+        **grid,
         "volume_before_mm3": material.before.volume() / MM**3,
         "volume_after_mm3": material.after.volume() / MM**3,
         "removed_mm3": material.removed_volume / MM**3,

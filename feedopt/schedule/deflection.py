@@ -113,7 +113,7 @@ class DeflectionModel:
         """The distinct (entry, exit, depth, plunge) rows of samples ``index`` and, per
         sample, the row it has; None for pieced engagements (a sample's pieces are its own)."""
         e = self.engagement
-        if e.pieces is not None:
+        if e.pieces is not None or e.by_slice is not None:
             return None
         rows = np.stack([e.entry[index], e.exit[index], e.axial_depth[index],
                          _plunge_of(e)[index], _lean_of(e)[index]], axis=1)
@@ -202,7 +202,7 @@ class DeflectionModel:
         """:meth:`forces_at` before expansion: the split over the distinct (engagement,
         angles) rows and, per sample, the row it uses (None: one row per sample)."""
         eng = self.engagement_slice(sl)
-        if eng.pieces is None and eng.n > 1:
+        if eng.pieces is None and eng.by_slice is None and eng.n > 1:
             first, row = _same_rows(np.column_stack([eng.entry, eng.exit, eng.axial_depth,
                                                      _plunge_of(eng), _lean_of(eng),
                                                      angles]))
