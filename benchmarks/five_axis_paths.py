@@ -468,6 +468,59 @@ def write_new(out: Path, text: str, force: bool = False) -> None:
         raise
 
 
+def _write_bytes(out: Path, data: bytes, force: bool) -> None:
+    """``data`` to ``out`` through a temporary file and a rename (as :func:`write_new`)."""
+    if out.is_dir() or (out.exists() and not force):
+        raise FileExistsError(f"{out} exists (use --force to replace a file)")
+    fd, tmp = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, out)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# --- a stock for the ball --------------------------------------------------------------
+
+
+def surface_stock_stl(spec: Ball, allowance_mm: float, margin_mm: float = 8.0,
+                      floor_mm: float = 10.0, step_mm: float = 2.0) -> bytes:
+    """A binary STL [mm] of the stock a finishing pass of ``spec`` leaves the surface from:
+    the surface raised by ``allowance_mm`` along z, over the patch widened by ``margin_mm``
+    on every side, closed by four vertical walls and a flat floor ``floor_mm`` below the
+    surface's lowest point (facets ``step_mm``: on the 200 mm saddle a 2 mm facet is within
+    step^2 / (8 Rs) = 0.0025 mm of the surface)."""
+    hx, hy = 0.5 * spec.width_mm + margin_mm, 0.5 * spec.length_mm + margin_mm
+    xs = np.linspace(-hx, hx, max(2, math.ceil(2 * hx / step_mm)) + 1)
+    ys = np.linspace(-hy, hy, max(2, math.ceil(2 * hy / step_mm)) + 1)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    top = surface_z(spec, gx, gy)[0] + allowance_mm
+    floor = float(top.min()) - allowance_mm - floor_mm
+    pts = np.stack([gx, gy, top], axis=-1)
+    a, b, c, d = pts[:-1, :-1], pts[1:, :-1], pts[1:, 1:], pts[:-1, 1:]
+    tris = [np.stack([a, b, c], -2).reshape(-1, 3, 3), np.stack([a, c, d], -2).reshape(-1, 3, 3)]
+    low = pts.copy()
+    low[..., 2] = floor
+    tris += [np.stack([low[:-1, :-1], low[1:, 1:], low[1:, :-1]], -2).reshape(-1, 3, 3),
+             np.stack([low[:-1, :-1], low[:-1, 1:], low[1:, 1:]], -2).reshape(-1, 3, 3)]
+    for edge, edge_low in ((pts[:, 0], low[:, 0]), (pts[:, -1], low[:, -1]), (pts[0], low[0]),
+                           (pts[-1], low[-1])):
+        p0, p1, q0, q1 = edge[:-1], edge[1:], edge_low[:-1], edge_low[1:]
+        for t in (np.stack([p0, q0, q1], 1), np.stack([p0, q1, p1], 1)):
+            n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            out = np.einsum("ij,ij->i", n[:, :2], t.mean(axis=1)[:, :2]) > 0  # from the axis
+            tris.append(np.where(out[:, None, None], t, t[:, ::-1]))
+    tri = np.concatenate(tris).astype(np.float32)
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    rec = np.zeros(tri.shape[0], dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["n"], rec["v"] = normal, tri
+    header = b"feedopt benchmarks/five_axis_paths.py surface stock (mm)".ljust(80, b" ")
+    return header + np.uint32(tri.shape[0]).tobytes() + rec.tobytes()
+
+
 # --- command line --------------------------------------------------------------------------
 
 
@@ -495,7 +548,8 @@ def spec_from_args(kind: str, a: argparse.Namespace) -> Swarf | Ball:
     cls = Swarf if kind == "swarf" else Ball
     names = {f.name for f in dataclasses.fields(cls)}
     given = {k: v for k, v in vars(a).items()
-             if v is not None and k not in ("kind", "out", "force")}
+             if v is not None and k not in ("kind", "out", "force", "stock_out",
+                                            "stock_allowance_mm")}
     stray = sorted(set(given) - names)
     if stray:
         raise ValueError(f"--kind {kind} has no option {', '.join(stray)}")
@@ -529,6 +583,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--kind", choices=("swarf", "ball"), required=True)
     p.add_argument("--out", type=Path, required=True, help="the CL file to write (.cls)")
     p.add_argument("--force", action="store_true", help="replace an existing --out file")
+    p.add_argument("--stock-out", type=Path, help="--kind ball: also write the stock the pass "
+                   "finishes (binary STL, mm: surface_stock_stl) here")
+    p.add_argument("--stock-allowance-mm", type=float, default=0.5,
+                   help="the stock's allowance above the surface along z (default 0.5)")
     _options(p)
     a = p.parse_args(argv)
     try:
@@ -537,6 +595,11 @@ def main(argv: list[str] | None = None) -> int:
             raise FileExistsError(f"{a.out} exists (use --force to replace it)")
         path, text, notes = program(spec)
         write_new(a.out, text, force=a.force)
+        if a.stock_out is not None:
+            if not isinstance(spec, Ball):
+                raise ValueError("--stock-out is for --kind ball")
+            _write_bytes(a.stock_out, surface_stock_stl(spec, a.stock_allowance_mm), a.force)
+            notes.append(f"stock {a.stock_out}: the surface + {a.stock_allowance_mm:g} mm")
     except (ValueError, OSError) as exc:
         p.error(str(exc))
     s = path_stats(path)

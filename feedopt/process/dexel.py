@@ -426,14 +426,21 @@ class TriDexel:
         """Whether each point (m, 3) [m] is material (m,): ``rule`` 'majority' of the three
         grids (module docstring), 'any' of them, or 'z' (the z-grid alone)."""
         points = np.asarray(points, dtype=float).reshape(-1, 3)
-        if rule == "z":
-            return self.grids[2].contains(points)
-        votes = sum(g.contains(points).astype(np.int64) for g in self.grids)
-        if rule == "any":
-            return votes > 0
-        if rule != "majority":
+        if rule not in ("majority", "any", "z"):
             raise ValueError(f"unknown contains rule {rule!r}")
-        return votes >= 2
+        lo, hi = self.bounds()
+        # outside the grids' box no grid has material: only the points inside are looked up
+        inside = np.flatnonzero(np.all((points >= lo) & (points < hi), axis=1))
+        out = np.zeros(points.shape[0], dtype=bool)
+        if inside.size == 0:
+            return out
+        pts = points[inside]
+        if rule == "z":
+            out[inside] = self.grids[2].contains(pts)
+            return out
+        votes = sum(g.contains(pts).astype(np.int64) for g in self.grids)
+        out[inside] = votes > 0 if rule == "any" else votes >= 2
+        return out
 
     def volumes(self) -> np.ndarray:
         """The material volume [m^3] by each grid (x, y, z)."""

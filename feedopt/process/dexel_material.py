@@ -140,16 +140,40 @@ def sweep_dexel(stock: TriDexel, tool: Tool, samples, block: int = BLOCK) -> Dex
                                          depth[on], SLICES, ANGLES)
             parts.append((on, te.slices))
         bottom[sl] = _under_bottom(stock, tool, (tips[sl], axes[sl], feed[sl]))
-        before = stock.volume()
         first = max(start - 1, 0)
-        stock.sweep_tool(tips[first:sl.stop], axes[first:sl.stop], profile, height)
-        removed_block.append(before - stock.volume())
+        reach = min(height, float(np.max(axis_reach(stock, tips[first:sl.stop],
+                                                    axes[first:sl.stop], tool))))
+        before = stock.volume() if reach > 0.0 else 0.0
+        if reach > 0.0:  # the cutter up to where its axis leaves the stock's box
+            stock.sweep_tool(tips[first:sl.stop], axes[first:sl.stop], profile, reach)
+        removed_block.append(before - stock.volume() if reach > 0.0 else 0.0)
     table = _table(tool, samples, depth, parts)
     plunge = bottom & (_feed_along_axis(samples) < -math.cos(math.radians(PLUNGE_DEG)))
     engagement = _engagement(tool, table, depth, plunge)
     in_air = ~(table.cutting | plunge)
     return DexelFound(engagement, in_air, np.where(in_air, 0.0, depth), beyond,
                       _shared(np.asarray(removed_block), samples.s, block))
+
+
+def axis_reach(stock: TriDexel, tips: np.ndarray, axes: np.ndarray, tool: Tool
+               ) -> np.ndarray:
+    """(b,) the height above the tip [m] where each pose's axis leaves the stock's box
+    widened by the tool's largest radius (slab method; <= 0 where it never enters): above
+    it no point of the cutter is in the box, so removing the cutter up to it removes all it
+    cuts."""
+    lo, hi = stock.bounds()
+    top = tool.profile.length_to_height(tool.flute_length)
+    widen = max(0.5 * tool.diameter, float(tool.profile.at_length(top)[0]))  # widest radius
+    lo, hi = lo - widen, hi + widen
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (lo - tips) / axes, (hi - tips) / axes
+    near, far = np.minimum(t0, t1), np.maximum(t0, t1)
+    parallel = np.abs(axes) < 1e-12
+    inside = (tips >= lo) & (tips <= hi)
+    near = np.where(parallel, np.where(inside, -np.inf, np.inf), near)
+    far = np.where(parallel, np.where(inside, np.inf, -np.inf), far)
+    enter, leave = near.max(axis=1), far.min(axis=1)
+    return np.where(leave >= np.maximum(enter, 0.0), leave, 0.0)
 
 
 def _feed_along_axis(samples) -> np.ndarray:

@@ -199,8 +199,8 @@ def descent_notes(samples, feed_axial: np.ndarray | None, tool, stock: bool = Fa
     bottom (ball) cuts behind the tool too, where the ``cut:`` engagement's lateral band is
     taken to have material (:func:`~feedopt.process.general_forces.slice_engagement`).
     With ``stock`` (the engagement found in a tri-dexel, per slice) a rounded bottom's cut
-    is found, not assumed: no note; a flat bottom's side edges take the feed's component
-    across the axis."""
+    is found, not assumed (the note says where the model is extrapolated); a flat bottom's
+    side edges take the feed's component across the axis."""
     if feed_axial is None:
         return []
     angle = np.degrees(np.arcsin(np.clip(-feed_axial, 0.0, 1.0)))
@@ -208,8 +208,10 @@ def descent_notes(samples, feed_axial: np.ndarray | None, tool, stock: bool = Fa
     if angle[k] <= DESCENT_NOTE_DEG:
         return []
     if stock and tool.profile.r0 <= 0.0:
-        return []
-    if tool.profile.r0 > 0.0:
+        what = (f"the {tool.shape.value} cutter's rounded bottom cuts there with the chip of "
+                "each slice found in the stock, behind the tool too; near the tip the cutting "
+                "speed tends to zero, where the calibrated coefficients are extrapolated")
+    elif tool.profile.r0 > 0.0:
         side = (" (the side edges take the whole feed there: an upper bound of their chip)"
                 if tool.is_flat and not stock else "")
         what = (f"the end edges of the {tool.shape.value} cutter's flat bottom cut a chip there "

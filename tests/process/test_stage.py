@@ -59,6 +59,20 @@ def test_a_descent_is_noted_with_what_the_model_assumes(tool, says):
     assert descent_notes(rising, feed_along_axis(rising, np.ones(2, dtype=bool)), tool) == []
 
 
+@pytest.mark.parametrize(("tool", "says", "not_says"),
+                         [(FLAT, "flat bottom cut a chip", "the side edges take"),
+                          (BALL, "found in the stock", "reach behind the tool")])
+def test_a_descent_through_a_stock_is_noted_for_what_the_stock_does_not_give(tool, says,
+                                                                             not_says):
+    """With the engagement found in a tri-dexel, the ball's cut behind the tool is found
+    (the note names the extrapolated tip instead); the flat bottom's chip is still not
+    modelled, but the side edges no longer take the whole feed."""
+    samples = _samples(np.array([0.0, -12.0]))
+    fz = feed_along_axis(samples, np.ones(2, dtype=bool))
+    notes = descent_notes(samples, fz, tool, stock=True)
+    assert len(notes) == 1 and says in notes[0] and not_says not in notes[0]
+
+
 def test_a_lead_that_takes_the_whole_stated_cut_off_the_front_is_noted():
     """A ball slotting 0.2 mm deep at a 20 deg lead: the edge below kappa = 20 deg (the
     depth R (1 - cos 20 deg) = 0.30 mm) is off the front of the tool, so nothing cuts; at
