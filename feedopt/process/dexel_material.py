@@ -268,9 +268,16 @@ def _check_program_contacts(found: DexelFound, moves, samples, source: str,
         raise InputError(
             f"{source} {moves.label(int(move[i]))}: a rapid meets material: the cutter would "
             f"crash into the stock; rapid clear of it or cut with a feed move (at s = "
-            f"{samples.s[i] / MM:.3f} mm, material {found.axial_depth[i] / MM:.3g} mm up the "
-            "tool)")
+            f"{samples.s[i] / MM:.3f} mm, {_where_material(found, i)})")
     check_plunge_depth(deep, move, moves, tool, source)
+
+
+def _where_material(found: DexelFound, i: int) -> str:
+    """Where sample ``i`` meets material, for messages."""
+    if found.axial_depth[i] > 0.0:
+        return (f"material in front of the cutter up to {found.axial_depth[i] / MM:.3g} mm "
+                "above its tip")
+    return "material under its flat bottom"
 
 
 def _nothing_cut(section, before: TriDexel, found: DexelFound,
