@@ -45,6 +45,7 @@ from feedopt.export.job import (
     header_notes,
     status_line,
 )
+from feedopt.export.orientation import gap_notes, orientation_gap_deg
 from feedopt.export.rapid import rapid_arc_lengths
 from feedopt.units import MM
 
@@ -123,7 +124,9 @@ def _notes(job: ExportJob) -> list[str]:
             "robot base frame (UFRAME 0)",
             f"UTOOL 1 must be the TCP on the faceplate: {utool(job.robot)}",
             f"speeds: R[{SPEED_REGISTER}] mm/sec, the law's feed on each stretch",
-            *header_notes(job), "not verified on a controller or ROBOGUIDE"]
+            *header_notes(job),
+            *gap_notes(orientation_gap_deg(job, rapid_arc_lengths(job)[0]), "positions"),
+            "not verified on a controller or ROBOGUIDE"]
     out = []
     for t in text:
         t = t.encode("ascii", "replace").decode("ascii").replace(";", ",")
@@ -190,7 +193,9 @@ def export_fanuc(job: ExportJob, out_dir: Path) -> dict:
     except InputError as exc:
         return {"fanuc_program": None, "fanuc_not_written": f"no FANUC program: {exc}"}
     (out_dir / f"{job.law}.ls").write_text(text, encoding="ascii")
-    return {"fanuc_program": f"{job.law}.ls"}
+    gap = orientation_gap_deg(job, rapid_arc_lengths(job)[0])
+    return {"fanuc_program": f"{job.law}.ls",
+            **({} if gap is None else {"fanuc_orientation_gap_deg": gap})}
 
 
 EXPORTER = Exporter(

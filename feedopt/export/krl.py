@@ -58,6 +58,7 @@ from feedopt.export.frames import (
     header_lines,
 )
 from feedopt.export.job import Blocker, Exporter, ExportJob, header_notes, status_line
+from feedopt.export.orientation import gap_notes, orientation_gap_deg
 from feedopt.robot.axes import UNSTATED_AXES
 from feedopt.robot.model import six_axes_only
 from feedopt.units import MM
@@ -649,11 +650,8 @@ def export_krl(job: ExportJob, out_dir: Path, spindle: SpindleControl = SpindleC
         frames = cell_frames(job.robot)
         keys = key_points(job)
         entry = entry_exit(job)
-        gap = orientation_gap_deg(job)
-        five = [] if gap is None else [
-            f"five-axis path: the controller turns the tool between the key points by its own "
-            f"orientation interpolation; turned at an even rate between their tool axes it is up"
-            f" to {gap:.3g} deg from the planned tool axis (the RSI trajectory follows it)"]
+        gap = orientation_gap_deg(job, key_arc_lengths(job)[0])
+        five = gap_notes(gap, "key points")
         write_krl_program(out_dir / f"{job.law}.src", None, keys, comments=[
             status_line(job),
             f"feedopt scenario {job.scenario_name}, law {job.law}: key points of the path with "
@@ -664,29 +662,6 @@ def export_krl(job: ExportJob, out_dir: Path, spindle: SpindleControl = SpindleC
         return {"krl_program": None, "krl_not_written": f"no KRL program: {exc}"}
     return {"krl_program": f"{job.law}.src", "krl_data": f"{job.law}.dat",
             **({} if gap is None else {"krl_orientation_gap_deg": gap})}
-
-
-def orientation_gap_deg(job: ExportJob) -> float | None:
-    """Five-axis paths: the largest angle [deg] between the planned tool axis at the path
-    samples and the axis turned at an even rate (great circle, in proportion to s) between
-    the key points' axes; None when the tool axis does not turn."""
-    axes = job.sample_tool_axes
-    if np.ptp(axes, axis=0).max() <= 1e-12:
-        return None
-    s_keys, _, _ = key_arc_lengths(job)
-    s = job.problem.s
-    at_keys = np.column_stack([np.interp(s_keys, s, axes[:, k]) for k in range(3)])
-    at_keys /= np.linalg.norm(at_keys, axis=1, keepdims=True)
-    k = np.clip(np.searchsorted(s_keys, s, side="right") - 1, 0, s_keys.size - 2)
-    a, b = at_keys[k], at_keys[k + 1]
-    omega = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
-    t = np.clip((s - s_keys[k]) / np.maximum(s_keys[k + 1] - s_keys[k], 1e-300), 0.0, 1.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w0 = np.where(omega > 1e-12, np.sin((1 - t) * omega) / np.sin(omega), 1 - t)
-        w1 = np.where(omega > 1e-12, np.sin(t * omega) / np.sin(omega), t)
-    even = w0[:, None] * a + w1[:, None] * b
-    cross = np.linalg.norm(np.cross(even, axes), axis=1)
-    return float(np.degrees(np.max(np.arctan2(cross, np.einsum("ij,ij->i", even, axes)))))
 
 
 EXPORTER = Exporter(

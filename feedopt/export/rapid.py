@@ -57,6 +57,7 @@ from feedopt.export.job import (
     header_notes,
     status_line,
 )
+from feedopt.export.orientation import gap_notes, orientation_gap_deg
 from feedopt.robot.model import forward_kinematics
 from feedopt.units import MM
 
@@ -223,6 +224,7 @@ def rapid_module(job: ExportJob, name: str, spindle: RapidSpindle | None = None)
              f"  ! fo_tool: the TCP on {frames.flange_name} (+Z out of the flange): "
              + ", ".join(_num(v) for v in frames.tool.xyz_mm) + " mm.",
              *(f"  ! {n}" for n in header_notes(job)),
+             *(f"  ! {n}" for n in gap_notes(orientation_gap_deg(job, s_pts), "targets")),
              f"  ! Entry and exit: MoveAbsJ {APPROACH_MM:g} mm above the lead-in point, spindle "
              f"on, MoveL down, lead-in {LEAD_IN_MM:g} mm, the path, lead-out "
              f"{LEAD_OUT_MM:g} mm, retract, spindle off.",
@@ -282,7 +284,9 @@ def export_rapid(job: ExportJob, out_dir: Path) -> dict:
     except InputError as exc:
         return {"rapid_module": None, "rapid_not_written": f"no RAPID module: {exc}"}
     (out_dir / f"{job.law}.mod").write_text(text, encoding="ascii")
-    return {"rapid_module": f"{job.law}.mod"}
+    gap = orientation_gap_deg(job, rapid_arc_lengths(job)[0])
+    return {"rapid_module": f"{job.law}.mod",
+            **({} if gap is None else {"rapid_orientation_gap_deg": gap})}
 
 
 EXPORTER = Exporter(

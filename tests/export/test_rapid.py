@@ -174,3 +174,71 @@ def test_no_rapid_for_other_controllers_or_unstated_axes(tmp_path, capsys):
 
     blocker = early_check(load_robot(out), None)
     assert blocker is not None and "no RAPID module" in blocker.reason
+
+
+@pytest.fixture(scope="module")
+def irb2400_five_axis(tmp_path_factory) -> Path:
+    """The five-axis waypoint slot (tool vectors tilting up to 11 deg) on the IRB 2400."""
+    from tests.conftest import SCENARIOS
+
+    tmp = tmp_path_factory.mktemp("rapid5")
+    out = tmp / "irb2400"
+    assert main(["robot", "init", str(PUBLISHED / "irb2400.urdf"), "--out", str(out),
+                 "--controller", "abb"]) == 0
+    doc = yaml.safe_load((out / "robot.yaml").read_text())
+    doc["controller"]["axes"] = {"sign": [1] * 6, "offset_deg": [0] * 6,
+                                 "coupled": [{"axis": 3, "joint": 2, "factor": 1.0}]}
+    (out / "robot.yaml").write_text(yaml.safe_dump(doc))
+    scen = yaml.safe_load((SCENARIOS / "five_axis_csv.yaml").read_text())
+    for key in ("tool", "material"):
+        scen[key] = str(SCENARIOS / scen[key])
+    scen["path"]["file"] = str(SCENARIOS / scen["path"]["file"])
+    scen["path"]["spacing_mm"] = 0.5
+    scen["robot"] = {"directory": str(out), "start_configuration_deg": [0, 20, 30, 0, 60, 0]}
+    scen["workpiece"]["position_mm"] = [900.0, -150.0, 600.0]
+    scen["schedule"]["laws"] = ["jerk"]
+    p = tmp / "s.yaml"
+    p.write_text(yaml.safe_dump(scen))
+    result = run_scenario(p, out_dir=tmp / "out", progress=lambda _m: None, report=False)
+    assert result.summary["laws"]["jerk"]["rapid_module"] == "jerk.mod"
+    return tmp / "out"
+
+
+def _slerp_axes(a: np.ndarray, b: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Unit vectors an even fraction ``u`` of the way from ``a`` to ``b`` (great circle)."""
+    w = np.arccos(np.clip(np.einsum("ij,ij->i", a, b), -1.0, 1.0))
+    s = np.where(w > 1e-12, np.sin(w), 1.0)
+    out = (np.where(w > 1e-12, np.sin((1 - u) * w) / s, 1 - u)[:, None] * a
+           + np.where(w > 1e-12, np.sin(u * w) / s, u)[:, None] * b)
+    return out / np.linalg.norm(out, axis=1, keepdims=True)
+
+
+def test_a_five_axis_module_states_its_orientation_gap(irb2400_five_axis):
+    """The module's targets' tool axes (their quaternions' z columns) turned evenly along each
+    MoveL against the trajectory CSV's planned axes (KUKA A, B, C turned into a matrix here):
+    the largest angle is the summary's ``rapid_orientation_gap_deg`` (which interpolates by
+    arc length, here by the row's place along the chord) and the header states it."""
+    import json
+
+    summary = json.loads((irb2400_five_axis / "summary.json").read_text())
+    gap = summary["laws"]["jerk"]["rapid_orientation_gap_deg"]
+    text = (irb2400_five_axis / "jerk.mod").read_text()
+    assert f"up to {gap:.3g} deg from the planned tool axis" in text
+    targets = parse_rapid_targets(text)
+    path = sorted((int(k[4:]), v) for k, v in targets.items() if re.fullmatch(r"fo_p\d+", k))
+    pos = np.array([v["pos"] for _, v in path])
+    axes = np.array([_matrix_from_quaternion(v["orient"])[:, 2] for _, v in path])
+    head, rows = _csv(irb2400_five_axis / "jerk.csv")
+    xyz = rows[:, [head.index(k) for k in ("x_mm", "y_mm", "z_mm")]]
+    abc = rows[:, [head.index(k) for k in ("a_deg", "b_deg", "c_deg")]]
+    planned = np.array([_kuka_abc(v)[:, 2] for v in abc])
+    a, b = pos[:-1], pos[1:]
+    d = b - a
+    u = np.clip(np.einsum("kij,ij->ki", xyz[:, None, :] - a[None], d)
+                / np.maximum(np.einsum("ij,ij->i", d, d), 1e-30), 0.0, 1.0)
+    seg = np.argmin(np.linalg.norm(xyz[:, None, :] - (a[None] + u[..., None] * d[None]),
+                                   axis=2), axis=1)
+    even = _slerp_axes(axes[seg], axes[seg + 1], u[np.arange(seg.size), seg])
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", even, planned), -1.0, 1.0)))
+    assert gap > 0.0
+    assert angle.max() == pytest.approx(gap, rel=0.05, abs=2e-3)
