@@ -36,8 +36,9 @@ LAWS = law_names()  # the built-in laws, for defaults and CLI help
 #: the baseline each kind of path is compared with: constant (one nominal feed) or the
 #: program's own feeds; a scenario without schedule.laws runs every law but the other one
 BASELINE_OF_PROGRAMS, BASELINE_OF_PATHS = "programmed", "constant"
-#: path generators that read a CAM program (moves with feeds, rapids, stops): G-code, APT CL
-PROGRAM_GENERATORS = ("gcode", "apt")
+#: path generators that read a CAM program (moves with feeds, rapids, stops): G-code, APT CL,
+#: HEIDENHAIN Klartext
+PROGRAM_GENERATORS = ("gcode", "apt", "heidenhain")
 
 
 def default_laws(generator: str) -> list[str]:
@@ -113,11 +114,13 @@ class WorkpieceSection(_Strict):
 class PathSection(_Strict):
     """Tool path in the workpiece frame: a generator or a waypoint file, and its blends."""
 
-    generator: Literal["triangle_wave", "square_wave", "line", "csv", "gcode", "apt"] = Field(
+    generator: Literal["triangle_wave", "square_wave", "line", "csv", "gcode", "apt",
+                       "heidenhain"] = Field(
         description="triangle_wave | square_wave (length/height/waves), line (start/end), "
         "csv (file with columns x_mm,y_mm,z_mm, optionally i,j,k tool vectors), gcode (a CAM "
         "program: file; its F words are the nominal feed per move, its S word the spindle "
-        "speed), apt (an APT CL file, five-axis GOTO/x,y,z,i,j,k: read like a program)")
+        "speed), apt (an APT CL file, five-axis GOTO/x,y,z,i,j,k: read like a program), "
+        "heidenhain (a Klartext .h program, five-axis LN ... TX TY TZ: read like a program)")
     length_mm: PositiveFloat = Field(304.8, description="wave length along x (mm)")
     height_mm: PositiveFloat = Field(76.2, description="wave height along y (mm)")
     waves: Annotated[int, Field(ge=1)] = Field(3, description="number of waves")
@@ -181,6 +184,8 @@ class PathSection(_Strict):
             raise ValueError("generator 'gcode' needs 'file' (a G-code program)")
         if self.generator == "apt" and not self.file:
             raise ValueError("generator 'apt' needs 'file' (an APT CL file)")
+        if self.generator == "heidenhain" and not self.file:
+            raise ValueError("generator 'heidenhain' needs 'file' (a Klartext .h program)")
         return self
 
 

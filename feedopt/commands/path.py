@@ -33,6 +33,8 @@ AXIS_COLUMNS = ",i,j,k"
 PROGRAM_SUFFIXES = (".nc", ".ngc", ".tap", ".gcode", ".cnc", ".mpf", ".eia", ".iso")
 #: APT CL files (five-axis tool paths: GOTO/x,y,z,i,j,k), read like programs
 APT_SUFFIXES = (".cls", ".apt", ".aptsource", ".cl")
+#: HEIDENHAIN Klartext programs (five-axis LN ... TX TY TZ), read like programs
+HEIDENHAIN_SUFFIXES = (".h",)
 DEFAULT_PROGRAM_BLEND_SIZE_MM = 12.7
 DEFAULT_BLEND = "varying_radius"
 REPEAT_HINT = "pass --drop-repeated"
@@ -62,8 +64,9 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("waypoints", help="CSV with columns x_mm,y_mm,z_mm (and i,j,k tool "
                    "vectors), one of " + ", ".join(BUILTIN) + " (thesis test paths), a G-code "
-                   "program (" + ", ".join(PROGRAM_SUFFIXES) + ") or an APT CL file ("
-                   + ", ".join(APT_SUFFIXES) + "); a five-axis path's samples carry i,j,k")
+                   "program (" + ", ".join(PROGRAM_SUFFIXES) + "), an APT CL file ("
+                   + ", ".join(APT_SUFFIXES) + ") or a HEIDENHAIN Klartext program (.h); a "
+                   "five-axis path's samples carry i,j,k")
     p.add_argument("--blend", choices=blend_names(), default=DEFAULT_BLEND,
                    help=f"corner blend (default: {DEFAULT_BLEND})")
     # one size option per size parameter of the registered blend kinds (--radius, ...)
@@ -146,7 +149,7 @@ def _orientation_tolerance(args: argparse.Namespace) -> float:
 
 def is_program(name: str) -> bool:
     """True for a file name with a G-code or APT CL suffix."""
-    return name.lower().endswith(PROGRAM_SUFFIXES + APT_SUFFIXES)
+    return name.lower().endswith(PROGRAM_SUFFIXES + APT_SUFFIXES + HEIDENHAIN_SUFFIXES)
 
 
 _APT_LINE = re.compile(r"\s*(GOTO|FEDRAT|RAPID|MULTAX|UNITS|FROM|CIRCLE|LOADTL|CUTTER|TLAXIS"
@@ -204,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
 def _run_program(args: argparse.Namespace) -> int:
     """``feedopt path PROGRAM.nc`` (or an APT CL file): the program's G2 path within the
     tolerances."""
-    from feedopt.gcode import read_apt, read_gcode
+    from feedopt.gcode import read_apt, read_gcode, read_heidenhain
     from feedopt.geometry.program_path import ProgramPathOptions, program_path
 
     given = any(getattr(args, _dest(name), None) is not None for name in size_parameters())
@@ -220,7 +223,9 @@ def _run_program(args: argparse.Namespace) -> int:
         raise InputError(f"--max-rows must be >= 0 (0 = all junction rows), got {args.max_rows}")
     stock = path_stock.check_stock_args(args)
     check_data_and_plot(args.out, args.plot, [args.waypoints], "path.csv", "path.png")
-    reader = read_apt if args.waypoints.lower().endswith(APT_SUFFIXES) else read_gcode
+    name = args.waypoints.lower()
+    reader = (read_apt if name.endswith(APT_SUFFIXES) else
+              read_heidenhain if name.endswith(HEIDENHAIN_SUFFIXES) else read_gcode)
     program = reader(args.waypoints, arc_tolerance_mm=arc_tol / MM)
     result = program_path(program, ProgramPathOptions(
         tolerance=tol, air_tolerance=air, blend=args.blend, blend_size=size,

@@ -6,6 +6,7 @@ is an :class:`~feedopt.errors.InputError` naming the line, the N number and the 
 """
 
 from feedopt.gcode.apt import parse_apt, read_apt
+from feedopt.gcode.heidenhain import parse_heidenhain, read_heidenhain
 from feedopt.gcode.interpreter import parse_gcode, read_gcode
 from feedopt.gcode.moves import (
     SAME_POINT_MM,
@@ -36,7 +37,9 @@ __all__ = [
     "ToolShape",
     "parse_apt",
     "parse_gcode",
+    "parse_heidenhain",
     "read_apt",
     "read_gcode",
+    "read_heidenhain",
     "sample_move",
 ]

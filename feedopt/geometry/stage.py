@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from feedopt.errors import InputError
-from feedopt.gcode import read_apt, read_gcode
+from feedopt.gcode import read_apt, read_gcode, read_heidenhain
 from feedopt.geometry.orientation import blend_orientation
 from feedopt.geometry.orientation_knots import waypoint_knots
 from feedopt.geometry.path import (
@@ -105,17 +105,23 @@ def check_tools(program, tool_number: int | None) -> None:
             f"path.tool_number is {tool_number} (the tool the scenario's tool file describes)")
 
 
+#: program readers besides G-code's: generator -> (reader, what the file is)
+_PROGRAM_READERS = {"apt": (read_apt, "APT CL file"),
+                    "heidenhain": (read_heidenhain, "HEIDENHAIN Klartext program")}
+
+
 def program_from_section(section: Any, base_dir: FilePath,
                          resolve: Resolver = resolve_file, stock_top: bool = True
                          ) -> ProgramPath:
     """The smoothed path of the section's G-code program, with its provenance and report."""
-    if section.generator == "apt":
-        file = resolve(base_dir, section.file, "path.file (APT CL file)")
-        program = read_apt(file, arc_tolerance_mm=section.arc_tolerance_mm)
-    else:
+    if section.generator == "gcode":
         file = resolve(base_dir, section.file, "path.file (G-code program)")
         program = read_gcode(file, arc_tolerance_mm=section.arc_tolerance_mm,
                              dwell_p_units=section.dwell_p_units)
+    else:
+        reader, what = _PROGRAM_READERS[section.generator]
+        file = resolve(base_dir, section.file, f"path.file ({what})")
+        program = reader(file, arc_tolerance_mm=section.arc_tolerance_mm)
     check_tools(program, section.tool_number)
     result = program_path(program, program_options(section, stock_top))
     notes = tuple(f"{file.name}: {w}" for w in (*program.warnings, *result.warnings))
@@ -133,7 +139,7 @@ def path_from_section(section: Any, base_dir: FilePath, *,
     dropped. A ``gcode`` section gives the program's path (:func:`program_from_section`),
     whose ``moves`` say where every programmed move lies and ``notes`` what the reader and
     the smoothing recorded."""
-    if section.generator in ("gcode", "apt"):
+    if section.generator in _PROGRAM_READERS or section.generator == "gcode":
         return program_from_section(section, base_dir, resolve, stock_top).path
     vectors, name = None, ""
     try:

@@ -28,7 +28,13 @@ import yaml
 from pydantic import ValidationError
 
 from feedopt.errors import InputError
-from feedopt.scenario import Scenario, format_validation_error, load_scenario, resolve
+from feedopt.scenario import (
+    PROGRAM_GENERATORS,
+    Scenario,
+    format_validation_error,
+    load_scenario,
+    resolve,
+)
 from feedopt.sweep.grid import Axis, Number, apply_point
 from feedopt.textio import read_user_bytes
 from feedopt.yamlio import read_yaml_mapping
@@ -111,7 +117,7 @@ def build_bundle(scenario_path: str | Path) -> tuple[Bundle, Scenario]:
     origins = [(ROBOT_DIR, str(robot_dir))]
     named = [(("tool",), scenario.tool, "tool file"),
              (("material",), scenario.material, "material file")]
-    if scenario.path.generator in ("csv", "gcode", "apt"):
+    if scenario.path.generator in ("csv", *PROGRAM_GENERATORS):
         named.append((("path", "file"), scenario.path.file, "path.file"))
     if scenario.stock is not None and scenario.stock.mesh is not None:
         named.append((("stock", "mesh"), scenario.stock.mesh, "stock.mesh"))
