@@ -10,6 +10,7 @@ destination and moved into place only when everything succeeded (:mod:`feedopt.o
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
@@ -65,9 +66,14 @@ def prepare_front(
     base_dir: Path,
     progress: Progress = _stderr_progress,
     spacing_mm: float | None = None,
+    placed_check: Callable[[Front], None] | None = None,
 ) -> Front:
-    """Run the geometry, cell and process stages of ``scenario``."""
-    return _process(_place(scenario, base_dir, progress, spacing_mm), base_dir, progress)
+    """Run the geometry, cell and process stages of ``scenario``; ``placed_check`` sees the
+    front before its process stage (a command refusing a path before the costly part)."""
+    placed = _place(scenario, base_dir, progress, spacing_mm)
+    if placed_check is not None:
+        placed_check(placed)
+    return _process(placed, base_dir, progress)
 
 
 def _place(scenario: Scenario, base_dir: Path, progress: Progress,

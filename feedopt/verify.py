@@ -260,7 +260,9 @@ def replay_all(trajectories: dict[str, Trajectory], problem: ScheduleProblem,
         index = (None if np.isfinite(tolerances).any()
                  else part_samples(problem.s, e.exit > e.entry))
         fixed_axis = np.ptp(model.frames[:, :, 2], axis=0).max() <= 1e-12
-        if model.tool.is_flat and fixed_axis:  # a flat end mill's wall/floor, along its z
+        # a flat end mill's wall/floor along its z, from one interval per sample (an
+        # engagement found per slice in a tri-dexel stock has no such wall model)
+        if model.tool.is_flat and fixed_axis and e.by_slice is None:
             surfaces = dict(zip(replayable, surface_errors(model, feeds, index), strict=True))
         elif np.isfinite(tolerances).any():  # refused upstream (process stage): a bug here
             raise ValueError(f"part tolerances need a flat end mill; the tool is a "

@@ -83,12 +83,16 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.scenario}: no stock: section; give stock: {{box_mm: [x0, y0, "
                          "z0, x1, y1, z1]}} (or mesh: part.stl) for the engagement from the "
                          "material")
-    front = prepare_front(scenario, base_dir, progress=lambda _m: None, spacing_mm=args.spacing)
-    if not hasattr(front.process.material.before, "heights"):
-        raise InputError(f"{args.scenario}: the path tilts the tool (tool vectors), so its "
-                         "engagement comes from a tri-dexel stock per profile slice, which "
-                         "this command's table and Z-map figure cannot show; feedopt run "
-                         "gives its stock and forces (summary.json: stock, samples.csv)")
+    def three_axis(placed) -> None:
+        if placed.samples.axis is not None:
+            raise InputError(f"{args.scenario}: the path tilts the tool (tool vectors), so "
+                             "its engagement comes from a tri-dexel stock per profile slice, "
+                             "which this command's table and Z-map figure cannot show; "
+                             "feedopt run gives its stock and forces (summary.json: stock, "
+                             "samples.csv)")
+
+    front = prepare_front(scenario, base_dir, progress=lambda _m: None, spacing_mm=args.spacing,
+                          placed_check=three_axis)
     table = engagement_table(front)
     material = front.process.material
     found = material.found

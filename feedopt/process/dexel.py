@@ -134,14 +134,15 @@ class DexelGrid:
             self.intervals[rays, rank, 0] = lo
             self.intervals[rays, rank, 1] = hi
 
-    def subtract(self, rays: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    def subtract(self, rays: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
         """Remove the cuts ``[a, b]`` from the ``rays`` (several cuts per ray allowed): the
         events (material enter/exit, cut enter/exit) of every touched ray sorted, material
-        left where the material count is 1 and the cut count 0."""
+        left where the material count is 1 and the cut count 0. Returns the length of
+        material removed [m] (summed over the rays)."""
         keep = a < b
         rays, a, b = rays[keep], a[keep], b[keep]
         if rays.size == 0:
-            return
+            return 0.0
         rays, a, b = _chain_union(rays, a, b)
         touched = np.unique(rays)
         iv = self.intervals[touched]
@@ -160,6 +161,7 @@ class DexelGrid:
         lo, hi, owner = t[start], t[end], ray[start]
         solid = hi - lo > _SLIVER * self.spacing
         self.store(owner[solid], lo[solid], hi[solid], touched)
+        return float(np.sum(m_hi - m_lo) - np.sum(hi[solid] - lo[solid]))
 
 
 def _chain_union(rays: np.ndarray, a: np.ndarray, b: np.ndarray
@@ -465,13 +467,18 @@ class TriDexel:
         """Remove the volume the cutter sweeps along the poses (n, 3) tips and axes [m],
         sub-stepped so no point of it moves more than h/2 between removed poses (module
         docstring); returns the number of poses removed."""
+        return self.sweep_tool_removing(tips, axes, profile, height)[0]
+
+    def sweep_tool_removing(self, tips, axes, profile: Profile, height: float
+                            ) -> tuple[int, float]:
+        """:meth:`sweep_tool`, and the volume it removed [m^3] (the mean of the three grids',
+        as :meth:`volume`; found from the rays it touched, not by a scan of the stock)."""
         solid = tool_solid(profile, height)
         tips_s, axes_s = substeps(np.asarray(tips, dtype=float).reshape(-1, 3),
                                   np.asarray(axes, dtype=float).reshape(-1, 3),
                                   math.hypot(solid.height, solid.radius), 0.5 * self.spacing)
-        for grid in self.grids:
-            _remove_poses(grid, solid, tips_s, axes_s)
-        return tips_s.shape[0]
+        removed = [_remove_poses(grid, solid, tips_s, axes_s) for grid in self.grids]
+        return tips_s.shape[0], float(np.mean(removed)) * self.spacing**2
 
 
 def substeps(tips: np.ndarray, axes: np.ndarray, reach: float, step: float
@@ -500,9 +507,10 @@ def substeps(tips: np.ndarray, axes: np.ndarray, reach: float, step: float
 
 
 def _remove_poses(grid: DexelGrid, solid: ToolSolid, tips: np.ndarray,
-                  axes: np.ndarray) -> None:
+                  axes: np.ndarray) -> float:
     """Subtract the cutter at every pose from ``grid``: the rays in each pose's bounding box
-    (clipped to the grid), in blocks of about :data:`_PAIR_BUDGET` (pose, ray) pairs."""
+    (clipped to the grid), in blocks of about :data:`_PAIR_BUDGET` (pose, ray) pairs.
+    Returns the length of material removed along the rays [m]."""
     u, v = grid.uv
     h, (nu, nv) = grid.spacing, grid.shape
     lat = solid.radius * np.sqrt(np.clip(1.0 - axes**2, 0.0, 1.0))  # disc extent per coord
@@ -517,7 +525,7 @@ def _remove_poses(grid: DexelGrid, solid: ToolSolid, tips: np.ndarray,
     nj = np.maximum(j1.astype(np.int64) - j0 + 1, 0)
     count = ni * nj
     cum = np.cumsum(count)
-    start = 0
+    start, removed = 0, 0.0
     while start < count.size:
         base = cum[start - 1] if start else 0
         stop = max(start + 1, int(np.searchsorted(cum, base + _PAIR_BUDGET, "right")))
@@ -529,5 +537,6 @@ def _remove_poses(grid: DexelGrid, solid: ToolSolid, tips: np.ndarray,
         rays, pose = rays[live], pose[live]
         t0, t1 = ray_tool_intervals(solid, grid.ray_points(rays), grid.axis, tips[pose],
                                     axes[pose])
-        grid.subtract(rays, t0, t1)
+        removed += grid.subtract(rays, t0, t1)
         start = stop
+    return removed

@@ -62,7 +62,7 @@ from feedopt.process.force_sums import settle_critical
 from feedopt.process.tool import Tool
 
 __all__ = ["SliceEngagement", "general_average", "general_critical_angles", "general_sums",
-           "slice_engagement", "slice_intervals"]
+           "merge_intervals", "slice_engagement", "slice_intervals"]
 
 _TWO_PI = 2.0 * math.pi
 # Elements (samples x angles x slices) per block of the direct sums.
@@ -116,7 +116,7 @@ def slice_engagement(tool: Tool, engagement: Engagement, slices: int) -> SliceEn
         deep = sliced.height < depth[:, w, None]
         los.append(np.where(deep, lo, 0.0))
         his.append(np.where(deep, hi, 0.0))
-    return _leaning(SliceEngagement(sliced, *_merged(np.stack(los, axis=2),
+    return _leaning(SliceEngagement(sliced, *merge_intervals(np.stack(los, axis=2),
                                                      np.stack(his, axis=2))),
                     engagement.feed_axial)
 
@@ -156,7 +156,8 @@ def _leaning(se: SliceEngagement, feed_axial: np.ndarray | None) -> SliceEngagem
         on = (p_lo < p_hi) & (b > 0.0)
         parts_lo.append(np.where(on, 2.0 * np.pi - p_hi, 0.0))
         parts_hi.append(np.where(on, 2.0 * np.pi - p_lo, 0.0))
-    lo_all, hi_all = _merged(np.concatenate(parts_lo, axis=2), np.concatenate(parts_hi, axis=2))
+    lo_all, hi_all = merge_intervals(np.concatenate(parts_lo, axis=2),
+                                     np.concatenate(parts_hi, axis=2))
     return SliceEngagement(s, lo_all, hi_all, fx, fz)
 
 
@@ -179,7 +180,7 @@ def _padded_pieces(engagement: Engagement) -> tuple[np.ndarray, np.ndarray, np.n
     return out[0], out[1], out[2]
 
 
-def _merged(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def merge_intervals(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Intervals (..., W) merged where they touch or overlap, in increasing order; empty
     intervals (lo >= hi) dropped; padded at the end with empty ones (0, 0)."""
     shape = lo.shape

@@ -272,9 +272,13 @@ def process_along_path(scenario, resolve: Callable[[str, str], Path], samples,
     coefficients = table.at(cut.spindle_rpm, extrapolate=cut.extrapolate_coefficients)
     material = None
     source = str(getattr(scenario.path, "file", None) or "the program")
-    if scenario.stock is not None:
-        from_stock = engagement_from_stock if samples.axis is None else engagement_from_dexel
-        material = from_stock(scenario.stock, resolve, tool, samples, moves, source=source)
+    if scenario.stock is not None and samples.axis is not None:  # a tilted tool: tri-dexel
+        material = engagement_from_dexel(scenario.stock, resolve, tool, samples, moves,
+                                         source=source, slices=scenario.schedule.axial_slices)
+        engagement = material.found.engagement
+    elif scenario.stock is not None:
+        material = engagement_from_stock(scenario.stock, resolve, tool, samples, moves,
+                                         source=source)
         engagement = material.found.engagement
     else:
         engagement = engagement_of(cut, tool, samples.s)

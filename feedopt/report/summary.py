@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from feedopt.process.dexel import TriDexel
+from feedopt.process.dexel_material import DexelMaterialAlongPath
 from feedopt.process.program import unmodelled_plunge_moves
 from feedopt.units import MM
 
@@ -257,7 +257,7 @@ def stock_summary(prepared: Prepared) -> dict | None:
         return None
     sec = prepared.scenario.stock
     found = material.found
-    dexel = isinstance(material.before, TriDexel)
+    dexel = isinstance(material, DexelMaterialAlongPath)
     grid = ({"model": "tri-dexel", "rays": list(material.before.rays),
              "dexel_mb": material.before.nbytes / 1e6} if dexel else
             {"model": "z-map", "cells": list(material.before.shape),

@@ -222,7 +222,9 @@ class DeflectionModel:
     def chunk_size(self) -> int:
         """Samples per chunk of the bound and the replay: a (chunk, angles, 3) array stays
         ~35 MB."""
-        n_crit = 2 * self.axial_slices  # slice entry/exit angles per sample (critical_angles)
+        table = self.engagement.by_slice  # engaged per slice: its slices and intervals
+        n_crit = (2 * self.axial_slices if table is None  # entry/exit angles per sample
+                  else 2 * table.lo.shape[1] * table.lo.shape[2])
         return max(1, min(_CHUNK, _CHUNK_ELEMENTS // (self.angles.size + n_crit)))
 
     def terms(self, sl: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

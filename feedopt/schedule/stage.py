@@ -46,13 +46,19 @@ def angle_grid(teeth: int, step_deg: float) -> np.ndarray:
 MAX_FORCE_EVALUATIONS = 1e11
 
 
-def check_workload(n_samples: int, n_angles: int, axial_slices: int, teeth: int) -> None:
-    """InputError, with the estimate, when the force model would run for hours."""
-    work = 2.0 * n_samples * (n_angles + 2 * axial_slices) * axial_slices * teeth
+def check_workload(n_samples: int, n_angles: int, axial_slices: int, teeth: int,
+                   intervals: int = 1) -> None:
+    """InputError, with the estimate, when the force model would run for hours;
+    ``intervals``: the engaged intervals per slice (an engagement found per slice in a
+    tri-dexel stock has up to that many, each with its entry and exit)."""
+    slices = axial_slices * intervals
+    work = 2.0 * n_samples * (n_angles + 2 * slices) * slices * teeth
     if work > MAX_FORCE_EVALUATIONS:
+        per = f" ({intervals} intervals each)" if intervals > 1 else ""
         raise InputError(
             f"schedule.angle_step_deg and schedule.axial_slices ask for {n_angles} angles x "
-            f"{axial_slices} slices on {n_samples} samples: about {work:.2g} force evaluations, "
+            f"{axial_slices} slices{per} on {n_samples} samples: about {work:.2g} force "
+            "evaluations, "
             f"more than the {MAX_FORCE_EVALUATIONS:.0e} a run may take "
             "(about half an hour of computing); "
             "use a coarser angle step (1 deg is the default and within 1e-6 of the exact "
@@ -135,7 +141,9 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     limits, feed, sched = scenario.limits, scenario.feed, scenario.schedule
     defl = scenario.deflection
     angles = angle_grid(process.tool.teeth, sched.angle_step_deg)
-    check_workload(samples.s.size, angles.size, sched.axial_slices, process.tool.teeth)
+    table = process.engagement.by_slice
+    check_workload(samples.s.size, angles.size, sched.axial_slices, process.tool.teeth,
+                   1 if table is None else table.lo.shape[2])
     model = DeflectionModel(
         tool=process.tool,
         coefficients=process.coefficients,

@@ -14,7 +14,14 @@ from feedopt.process.averages import side_average
 from feedopt.process.coefficients import CuttingCoefficients
 from feedopt.process.cutter import CutterShape, SliceEngagement
 from feedopt.process.dexel import TriDexel
-from feedopt.process.dexel_material import engagement_from_dexel, sweep_dexel
+from feedopt.process.dexel_material import (
+    BLOCK_TURN_DEG,
+    axis_reach,
+    blocks,
+    engagement_from_dexel,
+    lag,
+    sweep_dexel,
+)
 from feedopt.process.engagement import Engagement, slot_engagement
 from feedopt.process.forces import critical_angles, milling_forces, milling_forces_at
 from feedopt.process.general_forces import slice_engagement
@@ -240,3 +247,81 @@ def test_lateral_hull_folds_the_back_onto_the_front():
     assert entry[1] == pytest.approx(2 * math.pi - 5.0)
     assert exit_[1] == pytest.approx(2 * math.pi - 3.5)
     assert entry[2] == exit_[2] == 0.0
+
+
+# ------------------------------------------------- review: plunges, blocks, lag, reach
+class _Moves:
+    """A program's move table for the samples: one move per sample, its category given."""
+
+    def __init__(self, category: list[str]) -> None:
+        self.category = np.array(category)
+
+    def index_at(self, s):
+        return np.arange(np.asarray(s).size)
+
+    def label(self, k: int) -> str:
+        return f"line {k + 1}"
+
+
+def test_a_plunge_deeper_than_the_flutes_is_found_and_refused():
+    """Straight down 25 mm into a box with 10 mm flutes: the material above the flutes is
+    found (nothing is in front of the cutter on a plunge), and a program is refused."""
+    short = Tool("short", 2 * R, 3, math.radians(30), 10 * MM)
+    samples = straight([0, 0, 2 * MM], [0, 0, -25 * MM], [0, 0, 1])
+    box = [[-10 * MM, -10 * MM, -40 * MM], [10 * MM, 10 * MM, 0.0]]
+    found = sweep_dexel(TriDexel.box(*box, 0.2 * MM), short, samples)
+    tip = samples.position[:, 2]
+    assert np.all(found.beyond_flutes[tip < -10.5 * MM])
+    assert not found.beyond_flutes[tip > -9.5 * MM].any()
+    with pytest.raises(InputError, match="line .*plunge reaches more than the flute length"):
+        engagement_from_dexel(_section(box_mm=[-10, -10, -40, 10, 10, 0]), None, short,
+                              samples, _Moves(["plunge"] * samples.s.size), "p.cls")
+
+
+def test_a_rapid_into_the_stock_is_refused_naming_its_line():
+    samples = straight([-20 * MM, 0, -1 * MM], [20 * MM, 0, -1 * MM], [0, 0, 1])
+    category = ["rapid"] * samples.s.size
+    with pytest.raises(InputError, match=r"p\.cls line \d+: a rapid meets material.*in front"):
+        engagement_from_dexel(_section(box_mm=[-10, -10, -10, 10, 10, 0]), None, flat(),
+                              samples, _Moves(category), "p.cls")
+
+
+def test_blocks_end_where_the_feed_turns_and_the_lag_is_six_ray_spacings():
+    a = np.radians(np.r_[np.zeros(40), np.linspace(0, 90, 31), np.full(40, 90.0)])
+    t = np.column_stack([np.cos(a), np.sin(a), np.zeros(a.size)])
+    samples = SimpleNamespace(tangent=t, axis=np.tile([0.0, 0.0, 1.0], (a.size, 1)))
+    out = blocks(samples, 16)
+    assert out[0] == (0, 16) and out[-1][1] == a.size
+    assert all(b == c for (_, b), (c, _) in zip(out[:-1], out[1:], strict=True))
+    for start, stop in out:  # no block turns by more than BLOCK_TURN_DEG
+        assert np.ptp(np.degrees(a[start:stop])) <= BLOCK_TURN_DEG + 1e-9
+    assert lag(0.2 * MM, np.arange(0, 10) * 0.1 * MM) == 12  # six ray spacings
+    assert lag(0.1 * MM, np.arange(0, 10) * 1.0 * MM) == 1
+    assert lag(0.5 * MM, np.arange(0, 10) * 0.01 * MM) == 64
+
+
+def test_axis_reach_is_where_the_axis_leaves_the_widened_box():
+    box = TriDexel.box([-10 * MM] * 3, [10 * MM, 10 * MM, 0.0], 1 * MM)
+    tips = np.array([[0.0, 0.0, -2 * MM], [0.0, 0.0, 30 * MM], [0.0, 0.0, -2 * MM]])
+    axes = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    reach = axis_reach(box, tips, axes, flat())
+    # up from 2 mm below the top: the box widened by R = 5 mm ends 7 mm up; above it: 0;
+    # pointing down: 8 + 5 mm to the widened bottom
+    assert reach == pytest.approx([7 * MM, 0.0, 13 * MM])
+
+
+def test_a_level_ball_finishing_pass_reads_its_closed_form_at_every_sample():
+    """Lead 0, 0.5 mm deep: every slice below the top is engaged on [0, pi] (the front);
+    no sample of a block (its first included, where the pose before it was just removed)
+    reads more than 5 % short of that (with the removal two ray spacings behind, the first
+    reads 23 % short; with six, none)."""
+    box = TriDexel.box([-10 * MM, -8 * MM, -6 * MM], [10 * MM, 8 * MM, 0.5 * MM], 0.1 * MM)
+    samples = straight([-16 * MM, 0, 0], [16 * MM, 0, 0], [0, 0, 1], step=0.1 * MM)
+    found = sweep_dexel(box, ball(), samples)
+    x = samples.position[:, 0]
+    mid = np.flatnonzero((x > -4 * MM) & (x < 4 * MM))
+    table = found.engagement.by_slice.rows(mid)
+    below = table.sliced.height < 0.5 * MM
+    exact = np.where(below, math.pi, 0.0).sum(axis=1)
+    got = np.sum(table.hi - table.lo, axis=(1, 2))
+    assert np.all(got >= 0.95 * exact) and np.all(got <= exact * (1 + 1e-6) + 0.2)
