@@ -102,3 +102,45 @@ def test_removed_volume_matches_the_swept_balls(saddle):
     estimate = swept.mean() * float(np.prod(hi - lo))
     removed = result.summary["scenario"]["stock"]["removed_mm3"]
     assert removed == pytest.approx(estimate, rel=0.05)
+
+
+def test_a_flat_end_mill_slotting_through_a_stock_with_a_fixed_tool_vector(tmp_path):
+    """Tool vectors that do not turn (a CSV with i, j, k = 0, 0, 1) and a flat end mill: the
+    engagement is found per slice in the tri-dexel (the wall/floor model of a flat end mill
+    along z is not used with it: it crashed there), planned, verified and exported; the slot
+    removes its cross-section (19.05 mm x 1.5 mm x the 60 mm box) within 1 %."""
+    sc = ROOT / "scenarios"
+    (tmp_path / "line.csv").write_text("x_mm,y_mm,z_mm,i,j,k\n-20,0,0,0,0,1\n80,0,0,0,0,1\n")
+    (tmp_path / "s.yaml").write_text(f"""\
+name: flat_tri_dexel
+robot:
+  directory: {ROOT / 'robots' / 'kuka_kr500_3'}
+  stiffness: dpp
+  start_configuration_deg: [9.728, -64.745, 107.062, 0.0, 47.682, 0.0]
+workpiece:
+  position_mm: [1750.0, -300.0, 800.0]
+path:
+  generator: csv
+  file: {tmp_path / 'line.csv'}
+  spacing_mm: 0.5
+tool: {sc / 'tools' / 'hss_2flute_19mm.yaml'}
+material: {sc / 'materials' / '6061-T6511.yaml'}
+stock:
+  box_mm: [0, -20, -10, 60, 20, 1.5]
+  cell_mm: 0.25
+cut:
+  spindle_rpm: 2500
+feed:
+  nominal_mm_s: 4.23
+deflection:
+  limit_mm: 0.29
+schedule:
+  laws: [jerk]
+""")
+    result = run_scenario(tmp_path / "s.yaml", tmp_path / "out", laws=["jerk"], progress=quiet,
+                          report=False)
+    row = result.summary["laws"]["jerk"]
+    assert row["verified"] and row["exported"], row["problems"]
+    stock = result.summary["scenario"]["stock"]
+    assert stock["model"] == "tri-dexel"
+    assert stock["removed_mm3"] == pytest.approx(19.05 * 1.5 * 60, rel=0.01)
