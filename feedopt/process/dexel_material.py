@@ -84,8 +84,10 @@ class DexelFound:
     in_air : (n,) no material in front of the cutter, no plunge
     axial_depth : (n,) [m] the height the material in front reaches above the tip, 0 in air
     beyond_flutes : (n,) material in front of the cutter above the flutes
-    removed : (n,) [m^3] the volume each block removed, shared among its samples by their
+    removed : (n,) [m^3] the volume each removal took, shared among its samples by their
         arc-length steps (their sum is the stock's volume before minus after)
+    rapid_hits : (n,) the samples of a rapid whose own sweep removed material (thicker than
+        half a ray spacing over a part of :data:`RAPID_CHUNK` samples): a crash
     """
 
     engagement: Engagement
@@ -93,6 +95,7 @@ class DexelFound:
     axial_depth: np.ndarray
     beyond_flutes: np.ndarray
     removed: np.ndarray
+    rapid_hits: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -155,12 +158,15 @@ def build_dexel_stock(section, resolve: Callable[[str, str], Path]) -> TriDexel:
 
 
 def sweep_dexel(stock: TriDexel, tool: Tool, samples, block: int = BLOCK,
-                slices: int = SLICES, lag_samples: int | None = None) -> DexelFound:
+                slices: int = SLICES, lag_samples: int | None = None,
+                rapid: np.ndarray | None = None) -> DexelFound:
     """Walk ``tool`` along ``samples`` (positions, unit tangents and unit tool axes in the
     stock's frame) through ``stock`` in blocks of at most ``block`` samples, cut where the
     feed or the tool axis turns by :data:`BLOCK_TURN_DEG`, removing what it cuts
     ``lag_samples`` (default :func:`lag`) samples behind (module docstring); the engagement
-    on ``slices`` profile slices."""
+    on ``slices`` profile slices. ``rapid`` (n,) marks the samples of rapid moves: they
+    carry no engagement, and :attr:`DexelFound.rapid_hits` where their own sweep removes
+    material."""
     tips, axes, feed = samples.position, samples.axis, samples.tangent
     n, height = tips.shape[0], tool.flute_length
     depth, beyond = np.zeros(n), np.zeros(n, dtype=bool)
@@ -168,7 +174,7 @@ def sweep_dexel(stock: TriDexel, tool: Tool, samples, block: int = BLOCK,
     plunging = _feed_along_axis(samples) < -math.cos(math.radians(PLUNGE_DEG))
     parts: list[tuple[np.ndarray, SliceEngagement]] = []
     removal = _Removal(stock, tool, samples, lag(stock.spacing, samples.s)
-                       if lag_samples is None else max(1, int(lag_samples)))
+                       if lag_samples is None else max(1, int(lag_samples)), rapid)
     for start, stop in blocks(samples, block):
         sl = slice(start, stop)
         depth[sl], beyond[sl] = material_height(stock.contains, tips[sl], axes[sl], feed[sl],
@@ -183,11 +189,14 @@ def sweep_dexel(stock: TriDexel, tool: Tool, samples, block: int = BLOCK,
         removal.upto(stop if stop == n else stop - removal.lag)
     table = _table(tool, samples, depth, parts, slices)
     beyond |= _plunge_depth(samples, plunging, bottom, stock.spacing) > height
+    if rapid is not None:  # a rapid cuts nothing (its sweep is judged: rapid_hits)
+        table = table.without(np.asarray(rapid, dtype=bool))
+        bottom &= ~np.asarray(rapid, dtype=bool)
     plunge = bottom & plunging
     engagement = _engagement(tool, table, depth, plunge)
     in_air = ~(table.cutting | plunge)
     return DexelFound(engagement, in_air, np.where(in_air, 0.0, depth), beyond,
-                      removal.per_sample())
+                      removal.per_sample(), removal.rapid_hits)
 
 
 #: A block ends where the feed direction and the tool axis have turned by this much [deg]
@@ -211,6 +220,10 @@ def blocks(samples, block: int) -> list[tuple[int, int]]:
     return out
 
 
+#: Samples of a rapid swept at once: a part whose swept volume is thicker than half a ray
+#: spacing over the tool's diameter and its length is a crash (a blended corner into a
+#: retract shaves a sliver of a few thousandths of a millimetre: no crash).
+RAPID_CHUNK = 8
 #: How far behind the walk removes what the cutter swept, in ray spacings of arc length.
 LAG_SPACINGS = 6.0
 #: The most samples the removal lags.
@@ -234,26 +247,54 @@ def lag(spacing: float, s: np.ndarray) -> int:
 
 
 class _Removal:
-    """The poses removed so far from the stock and the volume each removal took."""
+    """The poses removed so far from the stock, the volume each removal took and, for the
+    rapids, whether their own sweep met material."""
 
-    def __init__(self, stock: TriDexel, tool: Tool, samples, lag_samples: int) -> None:
+    def __init__(self, stock: TriDexel, tool: Tool, samples, lag_samples: int,
+                 rapid: np.ndarray | None = None) -> None:
         self.stock, self.tool, self.samples, self.lag = stock, tool, samples, lag_samples
+        n = samples.s.size
         self.done = 0  # poses [0, done) removed
-        self.removed = np.zeros(samples.s.size)
+        self.removed = np.zeros(n)
+        rapid = np.zeros(n, dtype=bool) if rapid is None else np.asarray(rapid, dtype=bool)
+        # the step into sample i is a rapid's when it leaves a rapid sample too (the first
+        # step of a rapid still ends the feed move before it, as for the Z-map)
+        self.rapid_step = rapid & np.r_[False, rapid[:-1]]
+        self.rapid_hits = np.zeros(n, dtype=bool)
 
     def upto(self, target: int) -> None:
-        """Remove the cutter swept from the last removed pose to pose ``target - 1``."""
+        """Remove the cutter swept from the last removed pose to pose ``target - 1``, in runs
+        of rapid and other steps (a rapid's sweep is judged on its own)."""
         if target <= self.done:
             return
-        first = max(self.done - 1, 0)
-        tips, axes = self.samples.position[first:target], self.samples.axis[first:target]
+        kind = self.rapid_step[self.done:target]
+        cuts = np.flatnonzero(np.diff(kind.astype(np.int8))) + 1 + self.done
+        for a, b in zip(np.r_[self.done, cuts], np.r_[cuts, target], strict=True):
+            self._sweep(int(a), int(b))
+        self.done = target
+
+    def _sweep(self, a: int, b: int) -> None:
+        if not self.rapid_step[a]:
+            self._sweep_part(a, b)
+            return
+        for start in range(a, b, RAPID_CHUNK):  # a rapid in parts: where it crashes
+            stop = min(start + RAPID_CHUNK, b)
+            volume = self._sweep_part(start, stop)
+            length = self.samples.s[stop - 1] - self.samples.s[max(start - 1, 0)]
+            area = self.tool.diameter * max(length, self.stock.spacing)
+            self.rapid_hits[start:stop] = volume / area > 0.5 * self.stock.spacing
+
+    def _sweep_part(self, a: int, b: int) -> float:
+        """Sweep poses a - 1 .. b - 1; the volume removed [m^3], shared among a .. b - 1."""
+        first = max(a - 1, 0)
+        tips, axes = self.samples.position[first:b], self.samples.axis[first:b]
         reach = min(self.tool.flute_length,
                     float(np.max(axis_reach(self.stock, tips, axes, self.tool))))
-        if reach > 0.0:  # the cutter up to where its axis leaves the stock's box
-            volume = self.stock.sweep_tool_removing(tips, axes, self.tool.profile, reach)[1]
-            self.removed[self.done:target] = _share(volume, self.samples.s[first:target],
-                                                    target - self.done)
-        self.done = target
+        if reach <= 0.0:  # the cutter up to where its axis leaves the stock's box
+            return 0.0
+        volume = self.stock.sweep_tool_removing(tips, axes, self.tool.profile, reach)[1]
+        self.removed[a:b] = _share(volume, self.samples.s[first:b], b - a)
+        return volume
 
     def per_sample(self) -> np.ndarray:
         return self.removed
@@ -385,7 +426,9 @@ def engagement_from_dexel(section, resolve: Callable[[str, str], Path], tool: To
     no plunge may reach above the flutes."""
     after = build_dexel_stock(section, resolve)
     before = DexelStockFacts.of(after)
-    found = sweep_dexel(after, tool, samples, slices=slices)
+    rapid = (None if moves is None
+             else moves.category[moves.index_at(samples.s)] == "rapid")
+    found = sweep_dexel(after, tool, samples, slices=slices, rapid=rapid)
     if moves is not None:
         _check_program_contacts(found, moves, samples, source, tool)
     return DexelMaterialAlongPath(before, after, found,
@@ -394,27 +437,22 @@ def engagement_from_dexel(section, resolve: Callable[[str, str], Path], tool: To
 
 def _check_program_contacts(found: DexelFound, moves, samples, source: str,
                             tool: Tool) -> None:
-    """A rapid that meets material in front of the cutter or under its bottom is refused,
-    naming the line; so is a plunge whose material reaches above the flutes."""
+    """A rapid whose own swept volume removes material (:attr:`DexelFound.rapid_hits`; a
+    retract along the tool axis out of its own hole removes none) is refused, naming the
+    line; so is a plunge deeper than the flutes."""
     move = moves.index_at(samples.s)
     cat = moves.category[move]
-    hit = (cat == "rapid") & ~found.in_air
+    hit = found.rapid_hits
     deep = (cat == "plunge") & found.beyond_flutes & ~found.in_air
     if hit.any() and not (deep.any() and np.argmax(deep) < np.argmax(hit)):
         i = int(np.argmax(hit))
+        run = found.removed[i:][:int(np.argmin(hit[i:])) or None]
         raise InputError(
             f"{source} {moves.label(int(move[i]))}: a rapid meets material: the cutter would "
             f"crash into the stock; rapid clear of it or cut with a feed move (at s = "
-            f"{samples.s[i] / MM:.3f} mm, {_where_material(found, i)})")
+            f"{samples.s[i] / MM:.3f} mm, its swept volume cuts {run.sum() / MM**3:.3g} mm^3 "
+            "of material)")
     check_plunge_depth(deep, move, moves, tool, source)
-
-
-def _where_material(found: DexelFound, i: int) -> str:
-    """Where sample ``i`` meets material, for messages."""
-    if found.axial_depth[i] > 0.0:
-        return (f"material in front of the cutter up to {found.axial_depth[i] / MM:.3g} mm "
-                "above its tip")
-    return "material under its flat bottom"
 
 
 def _nothing_cut(section, before: DexelStockFacts, found: DexelFound,

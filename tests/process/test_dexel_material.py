@@ -281,7 +281,9 @@ def test_a_plunge_deeper_than_the_flutes_is_found_and_refused():
 def test_a_rapid_into_the_stock_is_refused_naming_its_line():
     samples = straight([-20 * MM, 0, -1 * MM], [20 * MM, 0, -1 * MM], [0, 0, 1])
     category = ["rapid"] * samples.s.size
-    with pytest.raises(InputError, match=r"p\.cls line \d+: a rapid meets material.*in front"):
+    # its sweep cuts the 1 mm deep groove of the 10 mm end mill through the 20 mm box
+    with pytest.raises(InputError, match=r"p\.cls line \d+: a rapid meets material.*cuts 19\\d "
+                                         r"mm\^3"):
         engagement_from_dexel(_section(box_mm=[-10, -10, -10, 10, 10, 0]), None, flat(),
                               samples, _Moves(category), "p.cls")
 
@@ -325,3 +327,22 @@ def test_a_level_ball_finishing_pass_reads_its_closed_form_at_every_sample():
     exact = np.where(below, math.pi, 0.0).sum(axis=1)
     got = np.sum(table.hi - table.lo, axis=(1, 2))
     assert np.all(got >= 0.95 * exact) and np.all(got <= exact * (1 + 1e-6) + 0.2)
+
+
+@pytest.mark.parametrize("tool", [flat(), ball()], ids=["flat", "ball"])
+def test_a_rapid_retract_along_the_axis_out_of_its_own_hole_is_no_crash(tool):
+    """A plunge 8 mm into a box, then a rapid straight back up the tool axis: the rapid's
+    sweep stays in the hole the plunge cut (a retract is no crash, as for the Z-map), and
+    the rapid's samples carry no engagement (the tool's side lies on the wall it cut)."""
+    down = straight([0, 0, 3 * MM], [0, 0, -8 * MM], [0, 0, 1])
+    up = straight([0, 0, -8 * MM], [0, 0, 10 * MM], [0, 0, 1])
+    samples = SimpleNamespace(**{k: np.concatenate([getattr(down, k), getattr(up, k)[1:]])
+                                 for k in ("position", "tangent", "axis")})
+    samples.s = np.concatenate([down.s, down.s[-1] + up.s[1:]])
+    category = ["plunge"] * down.s.size + ["rapid"] * (up.s.size - 1)
+    out = engagement_from_dexel(_section(box_mm=[-10, -10, -20, 10, 10, 0]), None, tool,
+                                samples, _Moves(category), "p.cls")
+    rapid = np.array(category) == "rapid"
+    assert not out.found.rapid_hits.any()
+    assert out.found.in_air[rapid].all()
+    assert not out.found.in_air[:down.s.size][down.position[:, 2] < -1 * MM].any()
