@@ -282,7 +282,7 @@ def test_a_rapid_into_the_stock_is_refused_naming_its_line():
     samples = straight([-20 * MM, 0, -1 * MM], [20 * MM, 0, -1 * MM], [0, 0, 1])
     category = ["rapid"] * samples.s.size
     # its sweep cuts the 1 mm deep groove of the 10 mm end mill through the 20 mm box
-    with pytest.raises(InputError, match=r"p\.cls line \d+: a rapid meets material.*cuts 19\\d "
+    with pytest.raises(InputError, match=r"p\.cls line \d+: a rapid meets material.*cuts 19\d "
                                          r"mm\^3"):
         engagement_from_dexel(_section(box_mm=[-10, -10, -10, 10, 10, 0]), None, flat(),
                               samples, _Moves(category), "p.cls")
