@@ -253,7 +253,9 @@ class StockSection(_Strict):
     box_mm: Annotated[list[FiniteFloat], Field(min_length=6, max_length=6)] | None = Field(
         None, description="box of stock in W: [x0, y0, z0, x1, y1, z1] (mm)")
     mesh: str | None = Field(None, description="closed triangle mesh of the stock (STL, binary "
-                             "or ASCII, in W, in stock.units); tops per cell by vertical rays")
+                             "or ASCII, in W, in stock.units); a Z-map's tops per cell by "
+                             "vertical rays, or on a five-axis path a tri-dexel (rays along x, "
+                             "y and z)")
     from_program: bool = Field(False, description="gcode: a box made from the program: from "
                                "path.stock_top_mm down to the deepest cut, around the cutting "
                                "moves (and plunges below the top) widened by the tool radius; "
@@ -269,9 +271,12 @@ class StockSection(_Strict):
     cell_mm: Annotated[float, Field(ge=0.02, le=5.0, allow_inf_nan=False)] = Field(
         0.25, description="Z-map cell size (mm): entry/exit angles within about "
         "cell / sqrt(2) / (R sin phi) rad (1.1 deg at 0.25 mm, R 9.525 mm); a stock may have "
-        "at most 40 million cells (4 bytes each: 1.58 x 1.58 m at 0.25 mm)")
+        "at most 40 million cells (4 bytes each: 1.58 x 1.58 m at 0.25 mm). On a five-axis "
+        "path the tri-dexel's ray spacing (at most 60 million rays; keep it well below the "
+        "depth of cut: the material is read within 0.6 of it)")
     depth_step_mm: Annotated[float, Field(ge=0.005, le=5.0, allow_inf_nan=False)] = Field(
-        0.1, description="axial depth resolution across the cutter (mm): where the material "
+        0.1, description="Z-map only (a tri-dexel finds the engagement per profile slice): "
+        "axial depth resolution across the cutter (mm): where the material "
         "top under the cutter varies (ramps, helices, steps), the engaged angles are split "
         "into pieces whose depths differ by this much, each at its largest depth (the force "
         "is overestimated by at most this much depth, never underestimated)")
@@ -557,7 +562,8 @@ class Scenario(_Strict):
                 self.workpiece.tool_axis, (0.0, 0.0, 1.0), strict=True)):
             raise ValueError("stock: the Z-map stock model is for 3-axis milling with the tool "
                              "axis along +z of the workpiece frame; workpiece.tool_axis must "
-                             "be [0, 0, 1]")
+                             "be [0, 0, 1] (a tilted tool takes its axis from the path's tool "
+                             "vectors, and then a tri-dexel stock: remove tool_axis)")
         return self
 
 

@@ -88,8 +88,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"{args.scenario}: the path tilts the tool (tool vectors), so "
                              "its engagement comes from a tri-dexel stock per profile slice, "
                              "which this command's table and Z-map figure cannot show; "
-                             "feedopt run gives its stock and forces (summary.json: stock, "
-                             "samples.csv)")
+                             "feedopt run gives its stock (summary.json: scenario.stock) and "
+                             "the deflection along the path (report.html)")
 
     front = prepare_front(scenario, base_dir, progress=lambda _m: None, spacing_mm=args.spacing,
                           placed_check=three_axis)

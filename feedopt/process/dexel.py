@@ -412,12 +412,19 @@ class TriDexel:
             rays, t = vertical_crossings(tri[..., [u, v, a]], origin, spacing, shape)
             order = np.lexsort((t, rays))
             rays, t = rays[order], t[order]
-            dup = np.r_[False, (rays[1:] == rays[:-1]) & (np.diff(t) <= tol)]
+            dup = np.zeros(rays.size, dtype=bool)
+            dup[1:] = (rays[1:] == rays[:-1]) & (np.diff(t) <= tol)
             rays, t = rays[~dup], t[~dup]
             n = shape[0] * shape[1]
-            if np.any(np.bincount(rays, minlength=n) % 2):
-                raise InputError("tri-dexel: a ray crosses the mesh an odd number of times "
-                                 f"(along axis {'xyz'[a]}): the mesh is not a consistent solid")
+            odd = np.flatnonzero(np.bincount(rays, minlength=n) % 2)
+            if odd.size:
+                i, j = divmod(int(odd[0]), shape[1])
+                at = origin + (np.array([i, j]) + 0.5) * spacing
+                raise InputError(
+                    f"tri-dexel: the ray along {'xyz'[a]} at {'xyz'[u]} = {at[0] * 1e3:.4g} mm, "
+                    f"{'xyz'[v]} = {at[1] * 1e3:.4g} mm crosses the mesh an odd number of "
+                    f"times ({odd.size} such rays): the mesh is not a closed solid there (a "
+                    "hole, a missing or flipped face); close or repair it")
             grid = DexelGrid(a, origin, float(spacing), shape, np.full((n, 1, 2), np.inf),
                              np.zeros(n, dtype=np.int64))
             grid.store(rays[0::2], t[0::2], t[1::2], np.arange(n))

@@ -91,5 +91,9 @@ def program_stock(scenario, resolve: Callable[[str, str], Path], samples, moves,
     unchanged unless the scenario asks for ``stock.from_program``."""
     if scenario.stock is None or not scenario.stock.from_program:
         return scenario, None
+    if samples.axis is not None:
+        raise InputError("stock.from_program: the box made from the program follows a tool "
+                         "along the workpiece's z; this path tilts the tool (its tool "
+                         "vectors): give stock.box_mm or stock.mesh")
     radius = 0.5 * load_tool(resolve(scenario.tool, "tool file")).diameter
     return resolve_program_stock(scenario, radius, samples, moves, spacing)

@@ -310,7 +310,7 @@ def law_summary(prepared: Prepared, result: LawResult) -> dict:
     mrr = removal_rates(prepared, ver.feed)
     removal = None if mrr is None else {
         "mean_mm3_s": prepared.process.material.removed_volume / MM**3 / traj.duration,
-        "max_mm3_s": float(np.max(mrr)),
+        "max_mm3_s": float(np.max(mrr)) + 0.0,
     }
     comp = result.compensation
     compensation = None if comp is None else {

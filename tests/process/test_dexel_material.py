@@ -346,3 +346,23 @@ def test_a_rapid_retract_along_the_axis_out_of_its_own_hole_is_no_crash(tool):
     assert not out.found.rapid_hits.any()
     assert out.found.in_air[rapid].all()
     assert not out.found.in_air[:down.s.size][down.position[:, 2] < -1 * MM].any()
+
+
+def test_meshes_thinner_than_a_ray_spacing_and_coarse_rays_are_named(tmp_path):
+    """A mesh thinner than stock.cell_mm (or in metres read as mm) is refused naming the
+    field (it crashed with an IndexError); rays coarse against the depth of cut warn."""
+    from feedopt.process.dexel_material import build_dexel_stock
+
+    tri = np.array([[[0, 0, 0], [40, 0, 0], [0, 20, 0]], [[0, 0, 0.08], [40, 0, 0.08],
+                                                           [0, 20, 0.08]]], dtype="<f4")
+    rec = np.zeros(2, dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = tri
+    (tmp_path / "thin.stl").write_bytes(b"x" * 80 + np.uint32(2).tobytes() + rec.tobytes())
+    with pytest.raises(InputError, match=r"stock.mesh .*thin.stl .*0\.08 mm: thinner than "
+                                         r"stock.cell_mm 0.2"):
+        build_dexel_stock(_section(mesh="thin.stl", cell_mm=0.2),
+                          lambda rel, _what: tmp_path / rel)
+    samples = straight([-16 * MM, 0, 0], [16 * MM, 0, 0], [0, 0, 1], step=0.5 * MM)
+    out = engagement_from_dexel(_section(box_mm=[-10, -10, -10, 10, 10, 1], cell_mm=1.0),
+                                None, ball(), samples)
+    assert any("stock.cell_mm 1 mm is coarse" in w for w in out.warnings)
