@@ -75,7 +75,20 @@ def law_feed_targets(feed: np.ndarray, v_max: np.ndarray, keeps_bound: bool) -> 
         f[i1 + 1:] = f[i1]
     if keeps_bound:
         f = np.minimum(f, v_max)
-    return f
+    return _stops_filled(f)
+
+
+def _stops_filled(f: np.ndarray) -> np.ndarray:
+    """``f`` with its zero feeds (interior stops: a reversal, a dwell; the controller stops
+    there by itself) replaced by the feed of the nearest sample before them that moves, or
+    after them at the start."""
+    moving = f > 0.0
+    if moving.all() or not moving.any():
+        return f
+    idx = np.where(moving, np.arange(f.size), -1)
+    before = np.maximum.accumulate(idx)
+    first = int(np.argmax(moving))
+    return np.where(moving, f, f[np.where(before >= 0, before, first)])
 
 
 def feed_pieces(target: np.ndarray, rel_tol: float = FEED_TOLERANCE,

@@ -163,11 +163,33 @@ def build_dexel_stock(section, resolve: Callable[[str, str], Path]) -> TriDexel:
                          "meets it (if the STL is in metres, set stock.units: m; else use a "
                          "finer stock.cell_mm)")
     try:
-        return TriDexel.from_mesh(tri, spacing)
+        stock = TriDexel.from_mesh(tri, spacing)
     except InputError as exc:
         hint = (" (if the STL is in millimetres, set stock.units: mm)" if units == "m" else "")
         raise InputError(f"{where}, {' x '.join(f'{v / MM:.4g}' for v in span)} mm at "
                          f"stock.cell_mm {section.cell_mm:g}: {exc}{hint}") from None
+    _check_enclosed(stock, tri, where)
+    return stock
+
+
+#: Largest relative difference between the mesh's enclosed volume and the tri-dexel's.
+VOLUME_TOLERANCE = 0.05
+
+
+def _check_enclosed(stock: TriDexel, tri: np.ndarray, where: str) -> None:
+    """InputError when the tri-dexel's volume differs from the volume the mesh encloses (the
+    divergence theorem: the sum of v0 . (v1 x v2) / 6 over the triangles) by more than
+    :data:`VOLUME_TOLERANCE`: the rays pair crossings even-odd, so overlapping shells (a
+    union not merged) read hollow where they overlap."""
+    enclosed = abs(float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum())
+                   / 6.0)
+    got = stock.volume()
+    if abs(got - enclosed) <= VOLUME_TOLERANCE * max(enclosed, got):
+        return
+    raise InputError(f"{where}: the mesh encloses {enclosed / MM**3:.6g} mm^3 but its rays "
+                     f"hold {got / MM**3:.6g} mm^3: overlapping shells (merge them into one "
+                     "solid: a boolean union) or faces turned inward; the stock would be "
+                     "hollow where they overlap")
 
 
 def sweep_dexel(stock: TriDexel, tool: Tool, samples, block: int = BLOCK,

@@ -212,3 +212,13 @@ def test_g1_blocks_are_the_block_by_block_text(points, feeds):
                    + ("" if word == last else f" {word}"))
         last = word
     assert _g1_blocks(p, f) == ref
+
+
+def test_an_interior_stop_keeps_the_feed_around_it():
+    """A law stopping at a reversal has feed 0 at an interior sample: its target is the feed
+    before it (the controller stops at the reversal by itself); G-code out refused zero
+    feeds (a five-axis out-and-back path, hostile pass)."""
+    feed = np.array([0.0, 2.0, 5.0, 5.0, 0.0, 4.0, 4.0, 1.0, 0.0])
+    target = law_feed_targets(feed, np.full(feed.size, np.inf), keeps_bound=False)
+    assert np.all(target > 0)
+    np.testing.assert_array_equal(target, [5, 5, 5, 5, 5, 4, 4, 4, 4])

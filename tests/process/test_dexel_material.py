@@ -366,3 +366,28 @@ def test_meshes_thinner_than_a_ray_spacing_and_coarse_rays_are_named(tmp_path):
     out = engagement_from_dexel(_section(box_mm=[-10, -10, -10, 10, 10, 1], cell_mm=1.0),
                                 None, ball(), samples)
     assert any("stock.cell_mm 1 mm is coarse" in w for w in out.warnings)
+
+
+def _stl(path, tri: np.ndarray) -> None:
+    rec = np.zeros(tri.shape[0], dtype=[("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
+    rec["v"] = tri
+    path.write_bytes(b"x" * 80 + np.uint32(tri.shape[0]).tobytes() + rec.tobytes())
+
+
+def test_overlapping_shells_are_refused_and_one_closed_box_is_read(tmp_path):
+    """Two closed boxes overlapping (a union not merged): the rays pair crossings even-odd
+    and would read the overlap hollow; refused by the enclosed volume. One box reads its
+    volume."""
+    import trimesh
+
+    a = trimesh.creation.box(extents=[20, 10, 5]).triangles
+    b = trimesh.creation.box(extents=[10, 10, 5]).triangles + [8.0, 0.0, 1.0]
+    _stl(tmp_path / "two.stl", np.concatenate([a, b]))
+    _stl(tmp_path / "one.stl", a)
+    resolve = lambda rel, _what: tmp_path / rel  # noqa: E731
+    from feedopt.process.dexel_material import build_dexel_stock
+
+    with pytest.raises(InputError, match="overlapping shells"):
+        build_dexel_stock(_section(mesh="two.stl"), resolve)
+    one = build_dexel_stock(_section(mesh="one.stl"), resolve)
+    assert one.volume() == pytest.approx(20 * 10 * 5 * MM**3, rel=0.01)
