@@ -46,6 +46,8 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     lines = [f"{source}: invalid {what} ({exc.error_count()} problem(s)):"]
     for err in exc.errors():
         loc = tuple(p for p in err["loc"] if not _is_union_tag(p))
+        if err["type"] == "extra_forbidden" and err["loc"]:  # the unknown key itself, as is
+            loc = tuple(p for p in err["loc"][:-1] if not _is_union_tag(p)) + err["loc"][-1:]
         path = ".".join(str(p) for p in loc) or "(top level)"
         if err["type"] == "extra_forbidden":
             names = field_names(model, loc[:-1])

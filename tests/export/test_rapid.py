@@ -64,18 +64,24 @@ def _kuka_abc(abc_deg: np.ndarray) -> np.ndarray:
     return rz @ ry @ rx
 
 
-@pytest.fixture(scope="module")
-def irb2400_run(tmp_path_factory) -> Path:
-    from tests.conftest import ROOT, SCENARIOS
-
-    tmp = tmp_path_factory.mktemp("rapid")
-    out = tmp / "irb2400"
+def _irb2400(out: Path) -> None:
+    """ROS-Industrial's IRB 2400 as a robot directory ``out`` for an ABB controller (A3 =
+    q3 + q2: the parallel linkage's coupling)."""
     assert main(["robot", "init", str(PUBLISHED / "irb2400.urdf"), "--out", str(out),
                  "--controller", "abb"]) == 0
     doc = yaml.safe_load((out / "robot.yaml").read_text())
     doc["controller"]["axes"] = {"sign": [1] * 6, "offset_deg": [0] * 6,
                                  "coupled": [{"axis": 3, "joint": 2, "factor": 1.0}]}
     (out / "robot.yaml").write_text(yaml.safe_dump(doc))
+
+
+@pytest.fixture(scope="module")
+def irb2400_run(tmp_path_factory) -> Path:
+    from tests.conftest import ROOT, SCENARIOS
+
+    tmp = tmp_path_factory.mktemp("rapid")
+    out = tmp / "irb2400"
+    _irb2400(out)
     scen = yaml.safe_load((SCENARIOS / "linear_peripheral.yaml").read_text())
     scen["tool"] = str(SCENARIOS / scen["tool"])
     scen["material"] = str(SCENARIOS / scen["material"])
@@ -183,12 +189,7 @@ def irb2400_five_axis(tmp_path_factory) -> Path:
 
     tmp = tmp_path_factory.mktemp("rapid5")
     out = tmp / "irb2400"
-    assert main(["robot", "init", str(PUBLISHED / "irb2400.urdf"), "--out", str(out),
-                 "--controller", "abb"]) == 0
-    doc = yaml.safe_load((out / "robot.yaml").read_text())
-    doc["controller"]["axes"] = {"sign": [1] * 6, "offset_deg": [0] * 6,
-                                 "coupled": [{"axis": 3, "joint": 2, "factor": 1.0}]}
-    (out / "robot.yaml").write_text(yaml.safe_dump(doc))
+    _irb2400(out)
     scen = yaml.safe_load((SCENARIOS / "five_axis_csv.yaml").read_text())
     for key in ("tool", "material"):
         scen[key] = str(SCENARIOS / scen[key])

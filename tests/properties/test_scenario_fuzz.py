@@ -11,7 +11,7 @@ import re
 
 import pytest
 import yaml
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from feedopt.cli import main
@@ -120,6 +120,7 @@ def test_duplicated_lines_and_keys(tmp_path, name, data):
 @budget(60)
 @given(raw=st.binary(max_size=400), name=st.sampled_from(SCENARIO_NAMES),
        where=st.floats(0, 1))
+@example(raw=b"([", name="linear_peripheral", where=0.0)  # an unknown key with a "[" in it
 def test_random_bytes(tmp_path, raw, name, where):
     text = TEXTS[name].encode()
     k = int(where * len(text))
