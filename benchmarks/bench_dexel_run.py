@@ -14,6 +14,9 @@ For each, the walk with the default lag (``lag``) and with the removal one sampl
 and an exact reference: per sample, the engagement (same slices and angles) in the half-space
 below the top minus the balls swept by every earlier pose (distance to the segments between
 the earlier ball centres < R; the shank stays above the top here), with no dexel at all.
+Also the walk of ``level`` with ``TriDexel.contains`` looking every point up in all three
+grids (as before the third grid was consulted only where the first two disagree), back to
+back with the current one: seconds, and whether the engagement is identical.
 Reported: seconds (best of ``--repeat``), and for the magnitude of the mean cutting force per
 unit feed per tooth over the revolution (``side_average``) of the cutting samples, each
 walk's largest and median relative difference from the reference; the removed volumes.
@@ -121,6 +124,38 @@ def _walk(tool, samples, kind: str, lag: int | None, repeat: int):
     return best, out
 
 
+def _all_three(stock: TriDexel):
+    """``stock.contains`` as it was: the three grids' votes summed for every point."""
+    def contains(points, rule: str = "majority"):
+        pts = np.asarray(points, dtype=float).reshape(-1, 3)
+        lo, hi = stock.bounds()
+        inside = np.flatnonzero(np.all((pts >= lo) & (pts < hi), axis=1))
+        out = np.zeros(pts.shape[0], dtype=bool)
+        votes = sum(g.contains(pts[inside]).astype(np.int64) for g in stock.grids)
+        out[inside] = votes >= 2
+        return out
+    return contains
+
+
+def _contains_lines(tool, repeat: int) -> str:
+    samples = _path("level")
+    times, tables = {}, {}
+    for _ in range(repeat):
+        for name in ("all three", "two then the third"):
+            box = _box("level")
+            if name == "all three":
+                box.contains = _all_three(box)
+            t0 = time.perf_counter()
+            found = sweep_dexel(box, tool, samples)
+            times[name] = min(times.get(name, math.inf), time.perf_counter() - t0)
+            tables[name] = found.engagement.by_slice
+    a, b = tables.values()
+    same = np.array_equal(a.lo, b.lo) and np.array_equal(a.hi, b.hi)
+    return ("contains on the level walk: " + ", ".join(f"{k} {v:.2f} s" for k, v in
+                                                        times.items())
+            + f"; engagement identical: {same}")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=2)
@@ -151,6 +186,7 @@ def main(argv: list[str] | None = None) -> int:
             + ", ".join(f"{b} lowest {d.min():+.2%} highest {d.max():+.2%} median "
                         f"{np.median(d):+.2%}" for b, d in diff.items())
             + f"; removed {v_b / MM**3:.2f} vs {v_1 / MM**3:.2f} mm^3")
+    lines.append(_contains_lines(tool, a.repeat))
     text = "\n".join(lines)
     print(text)
     if a.out is not None:

@@ -447,8 +447,14 @@ class TriDexel:
         if rule == "z":
             out[inside] = self.grids[2].contains(pts)
             return out
-        votes = sum(g.contains(pts).astype(np.int64) for g in self.grids)
-        out[inside] = votes > 0 if rule == "any" else votes >= 2
+        first, second = self.grids[0].contains(pts), self.grids[1].contains(pts)
+        # the third grid decides only where the first two disagree (the majority), or where
+        # neither holds (any)
+        open_ = first != second if rule == "majority" else ~(first | second)
+        third = np.zeros(pts.shape[0], dtype=bool)
+        third[open_] = self.grids[2].contains(pts[open_])
+        out[inside] = ((first & second) | third if rule == "majority"
+                       else first | second | third)
         return out
 
     def volumes(self) -> np.ndarray:
