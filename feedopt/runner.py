@@ -34,7 +34,12 @@ from feedopt.planning import law_workers as law_workers
 from feedopt.planning import plan_and_verify as plan_and_verify
 from feedopt.process.program import settings_from_program
 from feedopt.process.program_stock import program_stock
-from feedopt.process.stage import bound_feed_warnings, process_along_path, process_warnings
+from feedopt.process.stage import (
+    bound_feed_warnings,
+    process_along_path,
+    process_warnings,
+    stock_description,
+)
 from feedopt.process.tool import load_tool
 from feedopt.profiling import Progress, progress_bar, run_profile
 from feedopt.profiling import stderr_progress as _stderr_progress
@@ -290,15 +295,7 @@ def validate_scenario(scenario_path: str | Path) -> str:
     front = prepare_front(scenario, base_dir, _quiet)
     scenario, path, process = front.scenario, front.path, front.process
     notes = process_warnings(process, path, scenario)
-    stock = ""
-    if process.material is not None:
-        grid = process.material.before
-        units = (f", mesh read in {scenario.stock.units or 'mm'}" if scenario.stock.mesh
-                 else "")
-        size = (f"tri-dexel {' + '.join(f'{r:,}' for r in grid.rays)} rays every "
-                f"{grid.spacing / MM:g} mm" if hasattr(grid, "rays") else
-                f"{grid.shape[0]} x {grid.shape[1]} cells of {grid.cell / MM:g} mm")
-        stock = f"; stock {size}{units}"
+    stock = stock_description(process.material, scenario.stock)
     return (f"{scenario_path}: ok — {scenario.name}: {len(path.segments)} segments, "
             f"{path.length / MM:.2f} mm, laws {', '.join(scenario.schedule.laws)}{stock}"
             + "".join(f"\nwarning: {note}" for note in notes))

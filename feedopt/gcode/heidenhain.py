@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from feedopt.errors import InputError
@@ -243,6 +243,8 @@ class _Reader:
                 if name == "M":
                     out.setdefault("M", [])  # type: ignore[arg-type]
                     out["M"].append(int(float(value)))  # type: ignore[union-attr]
+                elif name in out:
+                    raise self.err(b, f"{name} given twice in one block")
                 elif name == "DR":
                     out["DR"] = value
                 else:
@@ -538,7 +540,9 @@ def read_heidenhain(path: str | Path, **options) -> Program:
     :func:`parse_heidenhain`."""
     data = read_user_bytes(path, "Klartext program", max_bytes_for("G-code program"))
     try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
-    return parse_heidenhain(text, source=str(path), **options)
+        return parse_heidenhain(data.decode("utf-8-sig"), source=str(path), **options)
+    except UnicodeDecodeError as exc:  # TNC files are often Latin-1 (comments in German)
+        program = parse_heidenhain(data.decode("latin-1"), source=str(path), **options)
+        note = (f"not UTF-8 text (undecodable byte at offset {exc.start}): read as Latin-1 "
+                "(the blocks are ASCII; only comments can differ)")
+        return replace(program, warnings=(note, *program.warnings))

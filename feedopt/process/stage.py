@@ -110,6 +110,21 @@ def bound_feed_warnings(process: ProcessAlongPath, v_max: np.ndarray, rpm: float
                                process.tool)
 
 
+def stock_description(material, section) -> str:
+    """``"; stock ..."`` for ``feedopt validate``: the Z-map's cells or the tri-dexel's rays
+    and spacing, and the mesh's units; ``""`` without a stock."""
+    if material is None:
+        return ""
+    grid = material.before
+    units = f", mesh read in {section.units or 'mm'}" if section.mesh else ""
+    if isinstance(material, DexelMaterialAlongPath):
+        size = (f"tri-dexel {' + '.join(f'{r:,}' for r in grid.rays)} rays every "
+                f"{grid.spacing / MM:g} mm")
+    else:
+        size = f"{grid.shape[0]} x {grid.shape[1]} cells of {grid.cell / MM:g} mm"
+    return f"; stock {size}{units}"
+
+
 def process_warnings(process: ProcessAlongPath, path, scenario) -> list[str]:
     """The warnings of the process stage: the program's tool comment against the scenario's
     tool file (:func:`~feedopt.process.program_tool.check_program_tool`), then the stage's

@@ -46,11 +46,13 @@ def angle_grid(teeth: int, step_deg: float) -> np.ndarray:
 MAX_FORCE_EVALUATIONS = 1e11
 
 
-def check_workload(n_samples: int, n_angles: int, axial_slices: int, teeth: int,
-                   intervals: int = 1) -> None:
-    """InputError, with the estimate, when the force model would run for hours;
-    ``intervals``: the engaged intervals per slice (an engagement found per slice in a
-    tri-dexel stock has up to that many, each with its entry and exit)."""
+def check_workload(n_samples: int, n_angles: int, axial_slices: int, process) -> None:
+    """InputError, with the estimate, when the force model would run for hours on
+    ``process`` (its tool's teeth; an engagement found per slice in a tri-dexel stock has up
+    to several intervals per slice, each with its entry and exit)."""
+    table = process.engagement.by_slice
+    intervals = 1 if table is None else table.lo.shape[2]
+    teeth = process.tool.teeth
     slices = axial_slices * intervals
     work = 2.0 * n_samples * (n_angles + 2 * slices) * slices * teeth
     if work > MAX_FORCE_EVALUATIONS:
@@ -141,9 +143,7 @@ def schedule_problem(scenario, process, robot, along, placement, samples,
     limits, feed, sched = scenario.limits, scenario.feed, scenario.schedule
     defl = scenario.deflection
     angles = angle_grid(process.tool.teeth, sched.angle_step_deg)
-    table = process.engagement.by_slice
-    check_workload(samples.s.size, angles.size, sched.axial_slices, process.tool.teeth,
-                   1 if table is None else table.lo.shape[2])
+    check_workload(samples.s.size, angles.size, sched.axial_slices, process)
     model = DeflectionModel(
         tool=process.tool,
         coefficients=process.coefficients,

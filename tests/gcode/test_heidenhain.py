@@ -113,6 +113,8 @@ END PGM ARC MM
     ("LN X+1 Y+0 Z+0 TX+0 TY+0 TZ+0 F100", "zero tool vector"),
     ("TOOL CALL 3 X S1000", "spindle along X"),
     ("FOO BAR", "unknown block"),
+    ("L X+1 X+2 F100", "X given twice"),
+    ("L X+nan F100", "not an address word"),
 ])
 def test_what_could_move_the_tool_is_refused_naming_the_line(block, says):
     text = f"BEGIN PGM R MM\nL X+0 Y+0 Z+0 R0 FMAX\nL F100\n{block}\nEND PGM R MM\n"
@@ -205,3 +207,13 @@ def test_the_ball_saddle_as_ln_blocks_reads_like_its_apt_file():
         assert (a.feed_mm_s is None) == (b.feed_mm_s is None)
         if a.feed_mm_s is not None:
             assert a.feed_mm_s == pytest.approx(b.feed_mm_s)
+
+
+def test_a_latin_1_file_is_read_and_noted(tmp_path):
+    from feedopt.gcode import read_heidenhain
+
+    p = tmp_path / "a.h"
+    p.write_bytes(b"BEGIN PGM A MM\n; K\xf6rper\nL X+0 Y+0 Z+0 FMAX\nL X+5 F100 M3\n"
+                  b"END PGM A MM\n")
+    prog = read_heidenhain(p)
+    assert len(prog.moves) == 1 and "read as Latin-1" in prog.warnings[0]
